@@ -1,0 +1,359 @@
+//! A small glTF 2.0 writer for scenes built in code: the shipped assets and the test scenes.
+//! Geometry goes into one base64-embedded buffer, so every scene is a single `.gltf` file.
+
+use base64::Engine;
+use glam::{Mat4, Quat, Vec3};
+use serde_json::{Value, json};
+use std::path::Path;
+
+/// Material parameters as glTF spells them.
+#[derive(Clone, Debug)]
+pub struct MaterialDesc {
+    pub name: String,
+    pub base_color: Vec3,
+    pub metallic: f32,
+    pub roughness: f32,
+    /// KHR_materials_specular specularFactor (0 gives a pure Lambertian dielectric).
+    pub specular: f32,
+    pub emission: Vec3,
+    pub emissive_strength: f32,
+    pub double_sided: bool,
+}
+
+impl MaterialDesc {
+    /// A pure Lambertian surface: dielectric with the specular layer switched off.
+    pub fn lambert(name: &str, albedo: Vec3) -> Self {
+        MaterialDesc {
+            name: name.into(),
+            base_color: albedo,
+            metallic: 0.0,
+            roughness: 1.0,
+            specular: 0.0,
+            emission: Vec3::ZERO,
+            emissive_strength: 1.0,
+            double_sided: false,
+        }
+    }
+
+    pub fn metal(name: &str, color: Vec3, roughness: f32) -> Self {
+        MaterialDesc {
+            metallic: 1.0,
+            roughness,
+            specular: 1.0,
+            ..Self::lambert(name, color)
+        }
+    }
+
+    /// An emitter of radiance `radiance` (stored as a unit-max emissiveFactor × strength).
+    pub fn emitter(name: &str, radiance: Vec3) -> Self {
+        let strength = radiance.max_element().max(1e-30);
+        MaterialDesc {
+            base_color: Vec3::ZERO,
+            emission: radiance / strength,
+            emissive_strength: strength,
+            ..Self::lambert(name, Vec3::ZERO)
+        }
+    }
+}
+
+#[derive(Default)]
+pub struct GltfBuilder {
+    buffer: Vec<u8>,
+    buffer_views: Vec<Value>,
+    accessors: Vec<Value>,
+    meshes: Vec<Value>,
+    materials: Vec<Value>,
+    nodes: Vec<Value>,
+    cameras: Vec<Value>,
+    lights: Vec<Value>,
+}
+
+impl GltfBuilder {
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    pub fn material(&mut self, m: &MaterialDesc) -> usize {
+        let mut v = json!({
+            "name": m.name,
+            "pbrMetallicRoughness": {
+                "baseColorFactor": [m.base_color.x, m.base_color.y, m.base_color.z, 1.0],
+                "metallicFactor": m.metallic,
+                "roughnessFactor": m.roughness,
+            },
+            "doubleSided": m.double_sided,
+        });
+        let mut ext = serde_json::Map::new();
+        if m.specular != 1.0 {
+            ext.insert(
+                "KHR_materials_specular".into(),
+                json!({ "specularFactor": m.specular }),
+            );
+        }
+        if m.emission != Vec3::ZERO {
+            v["emissiveFactor"] = json!([m.emission.x, m.emission.y, m.emission.z]);
+            if m.emissive_strength != 1.0 {
+                ext.insert(
+                    "KHR_materials_emissive_strength".into(),
+                    json!({ "emissiveStrength": m.emissive_strength }),
+                );
+            }
+        }
+        if !ext.is_empty() {
+            v["extensions"] = Value::Object(ext);
+        }
+        self.materials.push(v);
+        self.materials.len() - 1
+    }
+
+    fn push_view(&mut self, bytes: &[u8], target: u32) -> usize {
+        while self.buffer.len() % 4 != 0 {
+            self.buffer.push(0);
+        }
+        let offset = self.buffer.len();
+        self.buffer.extend_from_slice(bytes);
+        self.buffer_views.push(json!({
+            "buffer": 0, "byteOffset": offset, "byteLength": bytes.len(), "target": target
+        }));
+        self.buffer_views.len() - 1
+    }
+
+    fn vec3_accessor(&mut self, data: &[Vec3], with_bounds: bool) -> usize {
+        let flat: Vec<f32> = data.iter().flat_map(|v| v.to_array()).collect();
+        let view = self.push_view(bytemuck::cast_slice(&flat), 34962);
+        let mut acc = json!({ "bufferView": view, "componentType": 5126, "count": data.len(), "type": "VEC3" });
+        if with_bounds {
+            let min = data
+                .iter()
+                .fold(Vec3::splat(f32::INFINITY), |a, &b| a.min(b));
+            let max = data
+                .iter()
+                .fold(Vec3::splat(f32::NEG_INFINITY), |a, &b| a.max(b));
+            acc["min"] = json!(min.to_array());
+            acc["max"] = json!(max.to_array());
+        }
+        self.accessors.push(acc);
+        self.accessors.len() - 1
+    }
+
+    /// A mesh with one triangle primitive; returns the mesh index.
+    pub fn mesh(&mut self, name: &str, mesh: &MeshData, material: usize) -> usize {
+        let pos = self.vec3_accessor(&mesh.positions, true);
+        let mut attributes = json!({ "POSITION": pos });
+        if let Some(n) = &mesh.normals {
+            attributes["NORMAL"] = json!(self.vec3_accessor(n, false));
+        }
+        let view = self.push_view(bytemuck::cast_slice(&mesh.indices), 34963);
+        self.accessors.push(json!({
+            "bufferView": view, "componentType": 5125, "count": mesh.indices.len(), "type": "SCALAR"
+        }));
+        let indices = self.accessors.len() - 1;
+        self.meshes.push(json!({
+            "name": name,
+            "primitives": [{ "attributes": attributes, "indices": indices, "material": material }]
+        }));
+        self.meshes.len() - 1
+    }
+
+    /// A mesh placed by a node with `transform`.
+    pub fn add_mesh(&mut self, name: &str, mesh: &MeshData, material: usize, transform: Mat4) {
+        let m = self.mesh(name, mesh, material);
+        self.nodes
+            .push(json!({ "name": name, "mesh": m, "matrix": transform.to_cols_array() }));
+    }
+
+    pub fn camera(&mut self, name: &str, position: Vec3, target: Vec3, yfov_degrees: f32) {
+        self.cameras.push(json!({
+            "name": name, "type": "perspective",
+            "perspective": { "yfov": yfov_degrees.to_radians(), "znear": 0.01 }
+        }));
+        let rotation = look_rotation(position, target);
+        self.nodes.push(json!({
+            "name": name,
+            "camera": self.cameras.len() - 1,
+            "translation": position.to_array(),
+            "rotation": rotation.to_array(),
+        }));
+    }
+
+    /// A KHR_lights_punctual light. `kind` is "point", "spot" or "directional"; spot and
+    /// directional lights shine from `position` towards `target`.
+    pub fn punctual_light(
+        &mut self,
+        name: &str,
+        kind: &str,
+        color: Vec3,
+        intensity: f32,
+        position: Vec3,
+        target: Vec3,
+        cones: Option<(f32, f32)>,
+    ) {
+        let mut light = json!({ "name": name, "type": kind, "color": color.to_array(), "intensity": intensity });
+        if let Some((inner, outer)) = cones {
+            light["spot"] = json!({ "innerConeAngle": inner, "outerConeAngle": outer });
+        }
+        self.lights.push(light);
+        let rotation = look_rotation(position, target);
+        self.nodes.push(json!({
+            "name": name,
+            "translation": position.to_array(),
+            "rotation": rotation.to_array(),
+            "extensions": { "KHR_lights_punctual": { "light": self.lights.len() - 1 } }
+        }));
+    }
+
+    pub fn to_json(&self) -> Value {
+        let uri = format!(
+            "data:application/octet-stream;base64,{}",
+            base64::engine::general_purpose::STANDARD.encode(&self.buffer)
+        );
+        let mut used = vec!["KHR_materials_emissive_strength", "KHR_materials_specular"];
+        let mut root = json!({
+            "asset": { "version": "2.0", "generator": "veach scene generator" },
+            "scene": 0,
+            "scenes": [{ "nodes": (0..self.nodes.len()).collect::<Vec<_>>() }],
+            "nodes": self.nodes,
+            "meshes": self.meshes,
+            "materials": self.materials,
+            "accessors": self.accessors,
+            "bufferViews": self.buffer_views,
+            "buffers": [{ "byteLength": self.buffer.len(), "uri": uri }],
+        });
+        if !self.cameras.is_empty() {
+            root["cameras"] = json!(self.cameras);
+        }
+        if !self.lights.is_empty() {
+            root["extensions"] = json!({ "KHR_lights_punctual": { "lights": self.lights } });
+            used.push("KHR_lights_punctual");
+        }
+        root["extensionsUsed"] = json!(used);
+        root
+    }
+
+    pub fn write(&self, path: &Path) -> crate::Result<()> {
+        let text = serde_json::to_string_pretty(&self.to_json()).expect("JSON of plain values");
+        crate::image_io::write_atomically(path, |f| {
+            use std::io::Write;
+            f.write_all(text.as_bytes()).map_err(|e| e.to_string())
+        })
+    }
+}
+
+/// Rotation taking the node's -Z (glTF's view and light direction) to `target - position`,
+/// keeping +Y as close to world up as possible.
+fn look_rotation(position: Vec3, target: Vec3) -> Quat {
+    let forward = (target - position).normalize();
+    let up_hint = if forward.y.abs() > 0.999 {
+        Vec3::Z
+    } else {
+        Vec3::Y
+    };
+    let right = forward.cross(up_hint).normalize();
+    let up = right.cross(forward);
+    Quat::from_mat3(&glam::Mat3::from_cols(right, up, -forward))
+}
+
+/// Triangle mesh data in the form glTF stores it.
+#[derive(Clone, Debug, Default)]
+pub struct MeshData {
+    pub positions: Vec<Vec3>,
+    pub normals: Option<Vec<Vec3>>,
+    pub indices: Vec<u32>,
+}
+
+impl MeshData {
+    /// A planar quad a-b-c-d whose front face looks along `facing`.
+    pub fn quad(a: Vec3, b: Vec3, c: Vec3, d: Vec3, facing: Vec3) -> MeshData {
+        let front = (b - a).cross(c - a).dot(facing) >= 0.0;
+        let indices = if front {
+            vec![0, 1, 2, 0, 2, 3]
+        } else {
+            vec![0, 2, 1, 0, 3, 2]
+        };
+        MeshData {
+            positions: vec![a, b, c, d],
+            normals: None,
+            indices,
+        }
+    }
+
+    pub fn append(&mut self, other: &MeshData) {
+        let base = self.positions.len() as u32;
+        self.positions.extend_from_slice(&other.positions);
+        self.indices.extend(other.indices.iter().map(|i| i + base));
+        self.normals = None;
+    }
+
+    /// A closed prism over a convex footprint (4 corners at y = 0) of height `h`, faces outward.
+    pub fn prism(corners: [Vec3; 4], h: f32) -> MeshData {
+        let center = corners.iter().copied().sum::<Vec3>() / 4.0 + Vec3::Y * h * 0.5;
+        let up = Vec3::Y * h;
+        let mut m = MeshData::default();
+        let out = |p: Vec3| p - center;
+        let top = [
+            corners[0] + up,
+            corners[1] + up,
+            corners[2] + up,
+            corners[3] + up,
+        ];
+        m.append(&MeshData::quad(top[0], top[1], top[2], top[3], Vec3::Y));
+        m.append(&MeshData::quad(
+            corners[0],
+            corners[1],
+            corners[2],
+            corners[3],
+            -Vec3::Y,
+        ));
+        for i in 0..4 {
+            let j = (i + 1) % 4;
+            let mid = 0.5 * (corners[i] + corners[j]) + up * 0.5;
+            m.append(&MeshData::quad(
+                corners[i],
+                corners[j],
+                top[j],
+                top[i],
+                out(mid),
+            ));
+        }
+        m
+    }
+
+    /// A UV sphere with smooth normals, counter-clockwise seen from outside.
+    pub fn sphere(center: Vec3, radius: f32, slices: u32, stacks: u32) -> MeshData {
+        let mut positions = Vec::new();
+        let mut normals = Vec::new();
+        for i in 0..=stacks {
+            let theta = std::f32::consts::PI * i as f32 / stacks as f32;
+            for j in 0..=slices {
+                let phi = 2.0 * std::f32::consts::PI * j as f32 / slices as f32;
+                let n = Vec3::new(
+                    theta.sin() * phi.cos(),
+                    theta.cos(),
+                    theta.sin() * phi.sin(),
+                );
+                positions.push(center + radius * n);
+                normals.push(n);
+            }
+        }
+        let row = slices + 1;
+        let mut indices = Vec::new();
+        for i in 0..stacks {
+            for j in 0..slices {
+                let a = i * row + j;
+                let b = a + row;
+                // Skip the degenerate triangles at the poles.
+                if i != 0 {
+                    indices.extend([a, a + 1, b]);
+                }
+                if i + 1 != stacks {
+                    indices.extend([a + 1, b + 1, b]);
+                }
+            }
+        }
+        MeshData {
+            positions,
+            normals: Some(normals),
+            indices,
+        }
+    }
+}

@@ -1,0 +1,222 @@
+//! Rust twins of the structs in `shaders/layout.wgsl`, the one place that defines the data the
+//! host uploads and the kernels read. Field names match the WGSL member names, and the test
+//! `layout_matches_wgsl` checks every size and offset against naga's layouter.
+
+use bytemuck::{Pod, Zeroable};
+
+pub const STRATEGY_UNIFORM: u32 = 0;
+pub const STRATEGY_BRDF: u32 = 1;
+pub const STRATEGY_LIGHT: u32 = 2;
+pub const STRATEGY_MIS: u32 = 3;
+
+pub const HEURISTIC_BALANCE: u32 = 0;
+pub const HEURISTIC_POWER: u32 = 1;
+
+pub const SELECT_EACH: u32 = 0;
+pub const SELECT_UNIFORM: u32 = 1;
+pub const SELECT_POWER: u32 = 2;
+
+pub const LIGHT_AREA: u32 = 0;
+pub const LIGHT_POINT: u32 = 1;
+pub const LIGHT_SPOT: u32 = 2;
+pub const LIGHT_DIRECTIONAL: u32 = 3;
+
+pub const NO_LIGHT: u32 = u32::MAX;
+
+/// Threads per workgroup of the `render` entry point (`@workgroup_size(8, 8, 1)`).
+pub const WORKGROUP_SIZE: (u32, u32) = (8, 8);
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Camera {
+    pub origin: [f32; 3],
+    pub _pad0: f32,
+    pub forward: [f32; 3],
+    pub _pad1: f32,
+    pub right: [f32; 3],
+    pub _pad2: f32,
+    pub up: [f32; 3],
+    pub _pad3: f32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct FrameParams {
+    pub camera: Camera,
+    pub width: u32,
+    pub height: u32,
+    pub row_start: u32,
+    pub row_count: u32,
+    pub sample_start: u32,
+    pub sample_count: u32,
+    pub seed: u32,
+    pub strategy: u32,
+    pub light_samples: u32,
+    pub brdf_samples: u32,
+    pub heuristic: u32,
+    pub light_selection: u32,
+    pub light_count: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct BvhNode {
+    pub min: [f32; 3],
+    pub first: u32,
+    pub max: [f32; 3],
+    pub count: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct TriangleVerts {
+    pub p0: [f32; 3],
+    pub _pad0: f32,
+    pub p1: [f32; 3],
+    pub _pad1: f32,
+    pub p2: [f32; 3],
+    pub _pad2: f32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct TriangleShading {
+    pub n0: [f32; 3],
+    pub material: u32,
+    pub n1: [f32; 3],
+    pub light: u32,
+    pub n2: [f32; 3],
+    pub _pad: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Material {
+    pub base_color: [f32; 3],
+    pub metallic: f32,
+    pub emission: [f32; 3],
+    pub roughness: f32,
+    pub specular_color: [f32; 3],
+    pub specular: f32,
+    pub double_sided: u32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct Light {
+    pub kind: u32,
+    pub first_tri: u32,
+    pub tri_count: u32,
+    pub double_sided: u32,
+    pub position: [f32; 3],
+    pub area: f32,
+    pub direction: [f32; 3],
+    pub cos_inner: f32,
+    pub intensity: [f32; 3],
+    pub cos_outer: f32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct EmitterTriangle {
+    pub p0: [f32; 3],
+    pub cdf: f32,
+    pub e1: [f32; 3],
+    pub area: f32,
+    pub e2: [f32; 3],
+    pub light: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct PixelCounters {
+    pub rays: u32,
+    pub nonfinite: u32,
+}
+
+/// (struct name, size, [(member, offset)]) of every struct above, for the layout test.
+pub fn rust_layouts() -> Vec<(&'static str, usize, Vec<(&'static str, usize)>)> {
+    macro_rules! layout {
+        ($t:ident { $($f:ident),* $(,)? }) => {
+            (
+                stringify!($t),
+                std::mem::size_of::<$t>(),
+                vec![$((stringify!($f), std::mem::offset_of!($t, $f))),*],
+            )
+        };
+    }
+    vec![
+        layout!(Camera {
+            origin,
+            forward,
+            right,
+            up
+        }),
+        layout!(FrameParams {
+            camera,
+            width,
+            height,
+            row_start,
+            row_count,
+            sample_start,
+            sample_count,
+            seed,
+            strategy,
+            light_samples,
+            brdf_samples,
+            heuristic,
+            light_selection,
+            light_count
+        }),
+        layout!(BvhNode {
+            min,
+            first,
+            max,
+            count
+        }),
+        layout!(TriangleVerts { p0, p1, p2 }),
+        layout!(TriangleShading {
+            n0,
+            material,
+            n1,
+            light,
+            n2
+        }),
+        layout!(Material {
+            base_color,
+            metallic,
+            emission,
+            roughness,
+            specular_color,
+            specular,
+            double_sided
+        }),
+        layout!(Light {
+            kind,
+            first_tri,
+            tri_count,
+            double_sided,
+            position,
+            area,
+            direction,
+            cos_inner,
+            intensity,
+            cos_outer
+        }),
+        layout!(EmitterTriangle {
+            p0,
+            cdf,
+            e1,
+            area,
+            e2,
+            light
+        }),
+        layout!(PixelCounters { rays, nonfinite }),
+    ]
+}

@@ -1,0 +1,5 @@
+//! Everything that talks to wgpu: the shared data layout, the device, and the scene's buffers.
+
+pub mod context;
+pub mod layout;
+pub mod scene_buffers;

@@ -1,0 +1,238 @@
+//! Image files: linear float EXR and PFM, 8-bit sRGB PNG. Every write goes to a temporary file
+//! next to the target and is renamed over it only when complete, so a failed write never leaves
+//! a half-written image (and leaves an older file in place).
+
+use crate::error::{Error, Result};
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ImageFormat {
+    Exr,
+    Png,
+    Pfm,
+}
+
+impl ImageFormat {
+    pub fn from_path(path: &Path) -> Result<ImageFormat> {
+        let ext = path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(str::to_ascii_lowercase);
+        match ext.as_deref() {
+            Some("exr") => Ok(ImageFormat::Exr),
+            Some("png") => Ok(ImageFormat::Png),
+            Some("pfm") => Ok(ImageFormat::Pfm),
+            _ => Err(Error::Output {
+                path: path.to_owned(),
+                message: "unknown image type: use .exr (linear float), .png (8-bit sRGB) or .pfm"
+                    .into(),
+            }),
+        }
+    }
+}
+
+/// sRGB transfer function (IEC 61966-2-1).
+pub fn linear_to_srgb(v: f32) -> f32 {
+    if v <= 0.0031308 {
+        12.92 * v
+    } else {
+        1.055 * v.powf(1.0 / 2.4) - 0.055
+    }
+}
+
+/// Writes linear RGB pixels (row-major, top row first). `exposure` is in stops and applies to
+/// PNG only; float formats keep the radiance values as they are.
+pub fn write_image(
+    path: &Path,
+    width: u32,
+    height: u32,
+    pixels: &[[f32; 3]],
+    exposure: f32,
+) -> Result<()> {
+    let format = ImageFormat::from_path(path)?;
+    assert_eq!(pixels.len(), (width * height) as usize);
+    let clean: Vec<[f32; 3]> = pixels
+        .iter()
+        .map(|p| p.map(|v| if v.is_finite() { v } else { 0.0 }))
+        .collect();
+    write_atomically(path, |file| match format {
+        ImageFormat::Exr => {
+            let data: Vec<f32> = clean.iter().flatten().copied().collect();
+            let img =
+                image::Rgb32FImage::from_raw(width, height, data).expect("pixel count checked");
+            img.write_to(file, image::ImageFormat::OpenExr)
+                .map_err(|e| e.to_string())
+        }
+        ImageFormat::Png => {
+            let scale = 2f32.powf(exposure);
+            let data: Vec<u8> = clean
+                .iter()
+                .flatten()
+                .map(|&v| (linear_to_srgb((v * scale).clamp(0.0, 1.0)) * 255.0 + 0.5) as u8)
+                .collect();
+            let img = image::RgbImage::from_raw(width, height, data).expect("pixel count checked");
+            img.write_to(file, image::ImageFormat::Png)
+                .map_err(|e| e.to_string())
+        }
+        ImageFormat::Pfm => write_pfm(file, width, height, &clean).map_err(|e| e.to_string()),
+    })
+}
+
+/// Portable float map: "PF", size, -1 (little endian), then rows from the bottom up.
+fn write_pfm(
+    out: &mut BufWriter<std::fs::File>,
+    width: u32,
+    height: u32,
+    pixels: &[[f32; 3]],
+) -> std::io::Result<()> {
+    write!(out, "PF\n{width} {height}\n-1.0\n")?;
+    for row in (0..height as usize).rev() {
+        for p in &pixels[row * width as usize..(row + 1) * width as usize] {
+            for v in p {
+                out.write_all(&v.to_le_bytes())?;
+            }
+        }
+    }
+    Ok(())
+}
+
+fn temp_path(path: &Path) -> PathBuf {
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
+}
+
+/// Writes through `write` into a temporary file, then renames it over `path`.
+pub fn write_atomically(
+    path: &Path,
+    write: impl FnOnce(&mut BufWriter<std::fs::File>) -> std::result::Result<(), String>,
+) -> Result<()> {
+    let err = |m: String| Error::Output {
+        path: path.to_owned(),
+        message: m,
+    };
+    let tmp = temp_path(path);
+    let file = std::fs::File::create(&tmp)
+        .map_err(|e| err(format!("cannot create {}: {e}", tmp.display())))?;
+    let mut writer = BufWriter::new(file);
+    let result = write(&mut writer)
+        .and_then(|_| writer.flush().map_err(|e| e.to_string()))
+        .and_then(|_| writer.get_ref().sync_all().map_err(|e| e.to_string()));
+    drop(writer);
+    if let Err(e) = result {
+        let _ = std::fs::remove_file(&tmp);
+        return Err(err(format!("write failed: {e}")));
+    }
+    std::fs::rename(&tmp, path).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        err(format!("cannot move the finished file into place: {e}"))
+    })
+}
+
+/// Reads a linear RGB image (EXR or PFM as written above, or any format `image` reads).
+pub fn read_image(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
+    let err = |m: String| Error::Output {
+        path: path.to_owned(),
+        message: m,
+    };
+    if ImageFormat::from_path(path).ok() == Some(ImageFormat::Pfm) {
+        return read_pfm(path).map_err(err);
+    }
+    let img = image::open(path)
+        .map_err(|e| err(e.to_string()))?
+        .into_rgb32f();
+    let (w, h) = img.dimensions();
+    Ok((w, h, img.pixels().map(|p| p.0).collect()))
+}
+
+fn read_pfm(path: &Path) -> std::result::Result<(u32, u32, Vec<[f32; 3]>), String> {
+    let bytes = std::fs::read(path).map_err(|e| e.to_string())?;
+    let mut fields = Vec::new();
+    let mut pos = 0;
+    while fields.len() < 4 {
+        while pos < bytes.len() && bytes[pos].is_ascii_whitespace() {
+            pos += 1;
+        }
+        let start = pos;
+        while pos < bytes.len() && !bytes[pos].is_ascii_whitespace() {
+            pos += 1;
+        }
+        if start == pos {
+            return Err("truncated PFM header".into());
+        }
+        fields.push(String::from_utf8_lossy(&bytes[start..pos]).into_owned());
+    }
+    pos += 1;
+    if fields[0] != "PF" {
+        return Err("not a colour PFM (PF)".into());
+    }
+    let w: u32 = fields[1].parse().map_err(|_| "bad PFM width")?;
+    let h: u32 = fields[2].parse().map_err(|_| "bad PFM height")?;
+    let scale: f32 = fields[3].parse().map_err(|_| "bad PFM scale")?;
+    let n = w as usize * h as usize;
+    if bytes.len() < pos + n * 12 {
+        return Err("truncated PFM data".into());
+    }
+    let read = |i: usize| {
+        let b: [u8; 4] = bytes[pos + 4 * i..pos + 4 * i + 4].try_into().unwrap();
+        if scale < 0.0 {
+            f32::from_le_bytes(b)
+        } else {
+            f32::from_be_bytes(b)
+        }
+    };
+    let mut out = vec![[0.0; 3]; n];
+    for row in 0..h as usize {
+        for x in 0..w as usize {
+            let src = ((h as usize - 1 - row) * w as usize + x) * 3;
+            out[row * w as usize + x] = [read(src), read(src + 1), read(src + 2)];
+        }
+    }
+    Ok((w, h, out))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn float_formats_round_trip_and_png_is_srgb() {
+        let dir = std::env::temp_dir().join(format!("veach-io-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let pixels = vec![[0.25, 1.5, 1.0e3], [0.0, f32::NAN, 2.0]];
+        for ext in ["exr", "pfm"] {
+            let p = dir.join(format!("a.{ext}"));
+            write_image(&p, 2, 1, &pixels, 0.0).unwrap();
+            let (w, h, back) = read_image(&p).unwrap();
+            assert_eq!((w, h), (2, 1));
+            assert_eq!(back[0], [0.25, 1.5, 1.0e3], "{ext}");
+            assert_eq!(back[1], [0.0, 0.0, 2.0], "{ext}: NaN must be written as 0");
+        }
+        let p = dir.join("a.png");
+        write_image(&p, 2, 1, &[[0.5; 3], [2.0; 3]], 0.0).unwrap();
+        let png = image::open(&p).unwrap().into_rgb8();
+        assert_eq!(png.get_pixel(0, 0).0, [188; 3]); // sRGB(0.5) = 0.7354 → 188
+        assert_eq!(png.get_pixel(1, 0).0, [255; 3]);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn failed_write_keeps_the_old_file_and_leaves_no_temporary() {
+        let dir = std::env::temp_dir().join(format!("veach-atomic-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let p = dir.join("out.exr");
+        std::fs::write(&p, b"old").unwrap();
+        let r = write_atomically(&p, |_| Err("simulated failure".into()));
+        assert!(r.is_err());
+        assert_eq!(std::fs::read(&p).unwrap(), b"old");
+        assert_eq!(
+            std::fs::read_dir(&dir).unwrap().count(),
+            1,
+            "temporary file left behind"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

@@ -1,0 +1,22 @@
+//! veach: direct illumination on the GPU, with every classic Monte Carlo strategy.
+//!
+//! Pipeline: `scene` (glTF → triangles, materials, lights, cameras) → `bvh` → `gpu`
+//! (buffers in the layout of `shaders/layout.wgsl`) → `render` (WGSL compute kernels composed
+//! by `shaders`) → `image_io`.
+
+pub mod assets;
+pub mod bvh;
+pub mod error;
+pub mod gpu;
+pub mod image_io;
+pub mod render;
+pub mod scene;
+pub mod shaders;
+pub mod stats;
+
+pub use error::{Error, Result};
+pub use gpu::context::GpuContext;
+pub use render::{
+    GpuScene, Heuristic, LightSelection, RenderOutput, RenderSettings, Renderer, Strategy,
+};
+pub use scene::{Scene, load_gltf};

@@ -1,0 +1,541 @@
+//! The progressive renderer: uploads a scene once, then renders images with any strategy.
+//! A render is a series of short dispatches (a band of rows × a few camera samples each), so a
+//! long render shows progress, can be stopped, and never holds the GPU for seconds.
+
+use crate::bvh::build_bvh;
+use crate::error::{Error, Result};
+use crate::gpu::context::GpuContext;
+use crate::gpu::layout::{self, FrameParams, PixelCounters, WORKGROUP_SIZE};
+use crate::gpu::scene_buffers::{SceneArrays, build_scene_arrays};
+use crate::scene::{Camera, Scene};
+use crate::shaders;
+use std::time::{Duration, Instant};
+use wgpu::util::DeviceExt;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Strategy {
+    Uniform,
+    Brdf,
+    Light,
+    Mis,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Heuristic {
+    Balance,
+    Power,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum LightSelection {
+    /// Every light gets the light samples (the estimator sums over lights).
+    Each,
+    /// One light per sample, chosen uniformly.
+    Uniform,
+    /// One light per sample, chosen with probability proportional to its power.
+    Power,
+}
+
+impl Strategy {
+    pub fn name(self) -> &'static str {
+        match self {
+            Strategy::Uniform => "uniform",
+            Strategy::Brdf => "brdf",
+            Strategy::Light => "light",
+            Strategy::Mis => "mis",
+        }
+    }
+    /// Whether the strategy samples lights (and so can see point, spot and directional lights).
+    pub fn samples_lights(self) -> bool {
+        matches!(self, Strategy::Light | Strategy::Mis)
+    }
+    /// Default (light samples, BRDF-or-uniform samples) per camera sample: the classic
+    /// comparison of MIS with 32 + 32 against 1024 uniform directions.
+    pub fn default_sample_counts(self) -> (u32, u32) {
+        match self {
+            Strategy::Uniform => (0, 1024),
+            Strategy::Brdf => (0, 64),
+            Strategy::Light => (64, 0),
+            Strategy::Mis => (32, 32),
+        }
+    }
+}
+
+#[derive(Clone, Debug)]
+pub struct RenderSettings {
+    pub width: u32,
+    pub height: u32,
+    /// Camera samples per pixel. Each one takes `light_samples` light samples and
+    /// `brdf_samples` BRDF samples (uniform: `brdf_samples` hemisphere directions).
+    pub spp: u32,
+    pub strategy: Strategy,
+    pub light_samples: u32,
+    pub brdf_samples: u32,
+    pub heuristic: Heuristic,
+    pub light_selection: LightSelection,
+    pub seed: u32,
+    /// Stop once this much render time is spent (whole dispatches), even before `spp`.
+    pub time_limit: Option<Duration>,
+    /// Aim for dispatches of about this long.
+    pub dispatch_target: Duration,
+}
+
+impl Default for RenderSettings {
+    fn default() -> Self {
+        let (light_samples, brdf_samples) = Strategy::Mis.default_sample_counts();
+        RenderSettings {
+            width: 256,
+            height: 256,
+            spp: 1,
+            strategy: Strategy::Mis,
+            light_samples,
+            brdf_samples,
+            heuristic: Heuristic::Balance,
+            light_selection: LightSelection::Each,
+            seed: 0,
+            time_limit: None,
+            dispatch_target: Duration::from_millis(150),
+        }
+    }
+}
+
+/// What the progress callback sees after each dispatch.
+#[derive(Clone, Copy, Debug)]
+pub struct Progress {
+    /// 0..=1 of the sample budget (or of the time limit, whichever is nearer).
+    pub fraction: f64,
+    pub pixel_samples_done: u64,
+    pub elapsed: Duration,
+}
+
+/// The accumulated image and what it cost.
+pub struct RenderOutput {
+    pub width: u32,
+    pub height: u32,
+    /// Per pixel: sum of radiance samples (rgb) and the number of camera samples (w).
+    pub sum: Vec<[f32; 4]>,
+    pub sum_sq: Vec<[f32; 4]>,
+    pub rays: u64,
+    pub nonfinite_samples: u64,
+    pub render_time: Duration,
+    pub dispatches: u32,
+    /// Stopped by the callback (Ctrl-C) before the budget was spent.
+    pub interrupted: bool,
+}
+
+impl RenderOutput {
+    /// Per-pixel mean radiance; non-finite values (which the kernel never writes, but a sum can
+    /// overflow) become 0.
+    pub fn mean(&self) -> Vec<[f32; 3]> {
+        self.sum
+            .iter()
+            .map(|s| {
+                let n = s[3].max(1.0);
+                let m = [s[0] / n, s[1] / n, s[2] / n];
+                m.map(|v| if v.is_finite() { v } else { 0.0 })
+            })
+            .collect()
+    }
+
+    /// Per-pixel variance of the mean (sample variance / n), per channel.
+    pub fn variance_of_mean(&self) -> Vec<[f32; 3]> {
+        self.sum
+            .iter()
+            .zip(&self.sum_sq)
+            .map(|(s, q)| {
+                let n = s[3] as f64;
+                if n < 2.0 {
+                    return [0.0; 3];
+                }
+                std::array::from_fn(|c| {
+                    let mean = s[c] as f64 / n;
+                    let var = ((q[c] as f64 - n * mean * mean) / (n - 1.0)).max(0.0);
+                    (var / n) as f32
+                })
+            })
+            .collect()
+    }
+
+    pub fn min_samples(&self) -> u32 {
+        self.sum.iter().map(|s| s[3] as u32).min().unwrap_or(0)
+    }
+
+    pub fn mean_samples(&self) -> f64 {
+        self.sum.iter().map(|s| s[3] as f64).sum::<f64>() / self.sum.len().max(1) as f64
+    }
+}
+
+/// Timings and sizes of putting a scene on the GPU.
+#[derive(Clone, Debug, Default)]
+pub struct SceneUploadStats {
+    pub bvh_build: Duration,
+    pub bvh_nodes: usize,
+    pub bvh_sah_cost: f32,
+    pub upload: Duration,
+    pub gpu_scene_bytes: u64,
+}
+
+/// A scene on the GPU: its BVH, triangles, materials and lights, ready to render with any
+/// settings and camera.
+pub struct GpuScene {
+    buffers: Vec<wgpu::Buffer>,
+    light_count: u32,
+    pub stats: SceneUploadStats,
+}
+
+/// The compiled kernel on a device. One renderer renders any number of scenes.
+pub struct Renderer {
+    pub gpu: GpuContext,
+    pipeline: wgpu::ComputePipeline,
+    /// Kernel compilation, including the driver's compile at the first dispatch.
+    pub pipeline_creation: Duration,
+}
+
+fn storage_buffer<T: bytemuck::Pod + Default>(
+    device: &wgpu::Device,
+    label: &str,
+    data: &[T],
+) -> wgpu::Buffer {
+    // Bindings may not be empty: an empty array is uploaded as one zeroed element.
+    let fallback = [T::default()];
+    let contents: &[T] = if data.is_empty() { &fallback } else { data };
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents: bytemuck::cast_slice(contents),
+        usage: wgpu::BufferUsages::STORAGE,
+    })
+}
+
+impl Renderer {
+    /// Compiles the kernel.
+    pub fn new(gpu: GpuContext) -> Result<Renderer> {
+        let start = Instant::now();
+        let device = &gpu.device;
+        let source = shaders::render_kernel_source();
+        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("veach render kernel"),
+            source: wgpu::ShaderSource::Wgsl(source.into()),
+        });
+        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+            label: Some("render"),
+            layout: None,
+            module: &module,
+            entry_point: Some(shaders::RENDER_ENTRY_POINT),
+            compilation_options: Default::default(),
+            cache: None,
+        });
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(Error::Gpu(format!("kernel creation failed: {e}")));
+        }
+        let mut renderer = Renderer {
+            gpu,
+            pipeline,
+            pipeline_creation: Duration::ZERO,
+        };
+        // Drivers such as lavapipe compile at the first dispatch: do it here, so that render
+        // times measure rendering only.
+        let empty = renderer.upload_scene(&Scene::default())?;
+        let settings = RenderSettings {
+            width: 1,
+            height: 1,
+            spp: 1,
+            ..Default::default()
+        };
+        let camera = Camera::look_at(
+            "warm-up",
+            glam::Vec3::Z,
+            glam::Vec3::ZERO,
+            glam::Vec3::Y,
+            1.0,
+        );
+        renderer.render(&empty, &settings, &camera, &mut |_| true)?;
+        renderer.pipeline_creation = start.elapsed();
+        Ok(renderer)
+    }
+
+    /// Builds the BVH and uploads the scene.
+    pub fn upload_scene(&self, scene: &Scene) -> Result<GpuScene> {
+        let bvh = build_bvh(&scene.triangles);
+        let mut stats = SceneUploadStats {
+            bvh_build: bvh.build_time,
+            bvh_nodes: bvh.nodes.len(),
+            bvh_sah_cost: bvh.sah_cost,
+            ..Default::default()
+        };
+        let upload_start = Instant::now();
+        let arrays: SceneArrays = build_scene_arrays(scene, &bvh);
+        let device = &self.gpu.device;
+        let max_binding = device.limits().max_storage_buffer_binding_size as u64;
+        let too_big = [
+            std::mem::size_of_val(arrays.bvh_nodes.as_slice()),
+            std::mem::size_of_val(arrays.tri_verts.as_slice()),
+            std::mem::size_of_val(arrays.tri_shading.as_slice()),
+            std::mem::size_of_val(arrays.emitter_tris.as_slice()),
+        ]
+        .into_iter()
+        .find(|&b| b as u64 > max_binding);
+        if let Some(bytes) = too_big {
+            return Err(Error::Gpu(format!(
+                "the scene needs a {} MiB buffer but the adapter allows {} MiB per binding",
+                bytes >> 20,
+                max_binding >> 20
+            )));
+        }
+        let buffers = vec![
+            storage_buffer(device, "bvh_nodes", &arrays.bvh_nodes),
+            storage_buffer(device, "tri_verts", &arrays.tri_verts),
+            storage_buffer(device, "tri_shading", &arrays.tri_shading),
+            storage_buffer(device, "materials", &arrays.materials),
+            storage_buffer(device, "lights", &arrays.lights),
+            storage_buffer(device, "emitter_tris", &arrays.emitter_tris),
+            storage_buffer(device, "light_power_cdf", &arrays.light_power_cdf),
+        ];
+        stats.gpu_scene_bytes = buffers.iter().map(|b| b.size()).sum();
+        stats.upload = upload_start.elapsed();
+        Ok(GpuScene {
+            buffers,
+            light_count: scene.lights.len() as u32,
+            stats,
+        })
+    }
+
+    fn frame_params(&self, light_count: u32, s: &RenderSettings, camera: &Camera) -> FrameParams {
+        FrameParams {
+            camera: camera.to_gpu(s.width, s.height),
+            width: s.width,
+            height: s.height,
+            seed: s.seed,
+            strategy: match s.strategy {
+                Strategy::Uniform => layout::STRATEGY_UNIFORM,
+                Strategy::Brdf => layout::STRATEGY_BRDF,
+                Strategy::Light => layout::STRATEGY_LIGHT,
+                Strategy::Mis => layout::STRATEGY_MIS,
+            },
+            light_samples: if s.strategy.samples_lights() {
+                s.light_samples
+            } else {
+                0
+            },
+            brdf_samples: if s.strategy == Strategy::Light {
+                0
+            } else {
+                s.brdf_samples
+            },
+            heuristic: match s.heuristic {
+                Heuristic::Balance => layout::HEURISTIC_BALANCE,
+                Heuristic::Power => layout::HEURISTIC_POWER,
+            },
+            light_selection: match s.light_selection {
+                LightSelection::Each => layout::SELECT_EACH,
+                LightSelection::Uniform => layout::SELECT_UNIFORM,
+                LightSelection::Power => layout::SELECT_POWER,
+            },
+            light_count,
+            ..Default::default()
+        }
+    }
+
+    /// Renders `settings.spp` camera samples per pixel (or until the time limit), calling
+    /// `progress` after every dispatch; returning false from it stops the render early.
+    pub fn render(
+        &self,
+        scene: &GpuScene,
+        settings: &RenderSettings,
+        camera: &Camera,
+        progress: &mut dyn FnMut(Progress) -> bool,
+    ) -> Result<RenderOutput> {
+        let device = &self.gpu.device;
+        let queue = &self.gpu.queue;
+        let (w, h) = (settings.width, settings.height);
+        if w == 0 || h == 0 {
+            return Err(Error::Options(format!("image size {w}x{h} is empty")));
+        }
+        let pixels = w as u64 * h as u64;
+        let accum_bytes = pixels * 16;
+        let max_binding = device.limits().max_storage_buffer_binding_size as u64;
+        if accum_bytes > max_binding {
+            return Err(Error::Options(format!(
+                "{w}x{h} needs {} MiB per image buffer; this adapter allows {} MiB",
+                accum_bytes >> 20,
+                max_binding >> 20
+            )));
+        }
+        let zeroed = |label: &str, bytes: u64| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            })
+        };
+        let accum = zeroed("accum", accum_bytes);
+        let accum_sq = zeroed("accum_sq", accum_bytes);
+        let counters = zeroed(
+            "counters",
+            pixels * std::mem::size_of::<PixelCounters>() as u64,
+        );
+        let params_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("frame params"),
+            size: std::mem::size_of::<FrameParams>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+
+        let mut entries: Vec<wgpu::BindGroupEntry> = vec![wgpu::BindGroupEntry {
+            binding: 0,
+            resource: params_buffer.as_entire_binding(),
+        }];
+        for (i, b) in scene.buffers.iter().enumerate() {
+            entries.push(wgpu::BindGroupEntry {
+                binding: 1 + i as u32,
+                resource: b.as_entire_binding(),
+            });
+        }
+        for (i, b) in [&accum, &accum_sq, &counters].into_iter().enumerate() {
+            entries.push(wgpu::BindGroupEntry {
+                binding: 8 + i as u32,
+                resource: b.as_entire_binding(),
+            });
+        }
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("render"),
+            layout: &self.pipeline.get_bind_group_layout(0),
+            entries: &entries,
+        });
+
+        let mut params = self.frame_params(scene.light_count, settings, camera);
+        let total_pixel_samples = pixels * settings.spp as u64;
+        let mut done: u64 = 0;
+        let mut sample_start: u32 = 0;
+        let mut row_start: u32 = 0;
+        // Seconds per pixel-sample, measured as we go; start small to measure safely.
+        let mut cost: Option<f64> = None;
+        let mut render_time = Duration::ZERO;
+        let mut dispatches = 0u32;
+        let mut interrupted = false;
+        let max_dim = device.limits().max_compute_workgroups_per_dimension;
+        if w.div_ceil(WORKGROUP_SIZE.0) > max_dim {
+            return Err(Error::Options(format!(
+                "width {w} exceeds this adapter's dispatch limit"
+            )));
+        }
+        loop {
+            let within_time = settings.time_limit.is_none_or(|t| render_time < t);
+            if sample_start >= settings.spp || !within_time {
+                break;
+            }
+            // Size the dispatch to about `dispatch_target`.
+            let target_work = match cost {
+                None => (w as u64 * 8).min(pixels),
+                Some(c) => ((settings.dispatch_target.as_secs_f64() / c) as u64).max(w as u64),
+            };
+            let (rows, samples) = if row_start == 0 && target_work >= pixels {
+                let k = (target_work / pixels).clamp(1, (settings.spp - sample_start) as u64);
+                (h, k as u32)
+            } else {
+                let rows = (target_work / w as u64).clamp(1, (h - row_start) as u64) as u32;
+                (rows.min(max_dim * WORKGROUP_SIZE.1), 1)
+            };
+            params.row_start = row_start;
+            params.row_count = rows;
+            params.sample_start = sample_start;
+            params.sample_count = samples;
+            queue.write_buffer(&params_buffer, 0, bytemuck::bytes_of(&params));
+            let mut encoder = device.create_command_encoder(&Default::default());
+            {
+                let mut pass = encoder.begin_compute_pass(&Default::default());
+                pass.set_pipeline(&self.pipeline);
+                pass.set_bind_group(0, &bind_group, &[]);
+                pass.dispatch_workgroups(
+                    w.div_ceil(WORKGROUP_SIZE.0),
+                    rows.div_ceil(WORKGROUP_SIZE.1),
+                    1,
+                );
+            }
+            let start = Instant::now();
+            queue.submit([encoder.finish()]);
+            device
+                .poll(wgpu::PollType::wait_indefinitely())
+                .map_err(|e| Error::Gpu(format!("waiting for the GPU failed: {e}")))?;
+            let elapsed = start.elapsed();
+            render_time += elapsed;
+            dispatches += 1;
+            let work = w as u64 * rows as u64 * samples as u64;
+            done += work;
+            cost = Some(elapsed.as_secs_f64().max(1e-6) / work as f64);
+            row_start += rows;
+            if row_start >= h {
+                row_start = 0;
+                sample_start += samples;
+            }
+            let mut fraction = if total_pixel_samples > 0 {
+                done as f64 / total_pixel_samples as f64
+            } else {
+                1.0
+            };
+            if let Some(t) = settings.time_limit {
+                fraction = fraction.max(render_time.as_secs_f64() / t.as_secs_f64().max(1e-9));
+            }
+            let p = Progress {
+                fraction: fraction.min(1.0),
+                pixel_samples_done: done,
+                elapsed: render_time,
+            };
+            if !progress(p) {
+                interrupted = sample_start < settings.spp;
+                break;
+            }
+        }
+
+        let sum: Vec<[f32; 4]> = read_buffer(device, queue, &accum)?;
+        let sum_sq: Vec<[f32; 4]> = read_buffer(device, queue, &accum_sq)?;
+        let counts: Vec<PixelCounters> = read_buffer(device, queue, &counters)?;
+        Ok(RenderOutput {
+            width: w,
+            height: h,
+            sum,
+            sum_sq,
+            rays: counts.iter().map(|c| c.rays as u64).sum(),
+            nonfinite_samples: counts.iter().map(|c| c.nonfinite as u64).sum(),
+            render_time,
+            dispatches,
+            interrupted,
+        })
+    }
+}
+
+/// Copies a GPU buffer back to the host.
+fn read_buffer<T: bytemuck::Pod>(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    src: &wgpu::Buffer,
+) -> Result<Vec<T>> {
+    let staging = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("readback"),
+        size: src.size(),
+        usage: wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST,
+        mapped_at_creation: false,
+    });
+    let mut encoder = device.create_command_encoder(&Default::default());
+    encoder.copy_buffer_to_buffer(src, 0, &staging, 0, src.size());
+    queue.submit([encoder.finish()]);
+    let slice = staging.slice(..);
+    let (tx, rx) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |r| {
+        let _ = tx.send(r);
+    });
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|e| Error::Gpu(format!("waiting for the GPU failed: {e}")))?;
+    rx.recv()
+        .map_err(|_| Error::Gpu("readback was cancelled".into()))?
+        .map_err(|e| Error::Gpu(format!("readback failed: {e}")))?;
+    let data = slice
+        .get_mapped_range()
+        .map_err(|e| Error::Gpu(format!("readback failed: {e}")))?;
+    let out = bytemuck::cast_slice(&data).to_vec();
+    drop(data);
+    staging.unmap();
+    Ok(out)
+}

@@ -1,0 +1,368 @@
+//! glTF 2.0 (.gltf and .glb) → `Scene`: every triangle primitive of every node of the default
+//! scene with node transforms applied, metallic-roughness materials, emissive triangles as
+//! area lights, KHR_lights_punctual lights and perspective cameras.
+
+use super::{Camera, Light, LightKind, Material, Scene, Triangle};
+use crate::error::{Error, Result};
+use glam::{Mat3, Mat4, Vec3};
+use gltf::mesh::Mode;
+use std::path::Path;
+
+pub fn load_gltf(path: &Path) -> Result<Scene> {
+    let bytes =
+        std::fs::read(path).map_err(|e| Error::scene(path, format!("cannot read file: {e}")))?;
+    // The gltf crate validates the JSON, and `check_accessor` the byte ranges we read; should a
+    // malformed file still reach a panic inside the crate, report it as a bad file.
+    match std::panic::catch_unwind(|| load_gltf_bytes(path, &bytes)) {
+        Ok(result) => result,
+        Err(_) => Err(Error::scene(
+            path,
+            "malformed glTF: the reader failed on its data",
+        )),
+    }
+}
+
+fn load_gltf_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
+    let err = |m: String| Error::scene(path, m);
+    let gltf =
+        gltf::Gltf::from_slice(bytes).map_err(|e| err(format!("not a valid glTF file: {e}")))?;
+    let base = path
+        .parent()
+        .filter(|p| !p.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let buffers = gltf::import_buffers(&gltf.document, Some(base), gltf.blob.clone())
+        .map_err(|e| err(format!("cannot load buffers: {e}")))?;
+    let doc = &gltf.document;
+
+    let mut scene = Scene::default();
+    // Material i of the file is materials[i]; the default material is appended at the end.
+    for m in doc.materials() {
+        scene.materials.push(convert_material(&m));
+    }
+    let default_material = scene.materials.len() as u32;
+    scene.materials.push(Material::default());
+
+    let gltf_scene = doc
+        .default_scene()
+        .or_else(|| doc.scenes().next())
+        .ok_or_else(|| err("the file has no scene".into()))?;
+    let mut loader = Loader {
+        path,
+        buffers: &buffers,
+        scene: &mut scene,
+        default_material,
+    };
+    for node in gltf_scene.nodes() {
+        loader.visit(&node, Mat4::IDENTITY, 0)?;
+    }
+    if doc.textures().next().is_some() {
+        scene
+            .warnings
+            .push("textures are not supported yet and are ignored (factors are used)".into());
+    }
+    Ok(scene)
+}
+
+fn convert_material(m: &gltf::Material) -> Material {
+    let pbr = m.pbr_metallic_roughness();
+    let [r, g, b, _] = pbr.base_color_factor();
+    let (specular, specular_color) = match m.specular() {
+        Some(s) => (s.specular_factor(), Vec3::from(s.specular_color_factor())),
+        None => (1.0, Vec3::ONE),
+    };
+    let strength = m.emissive_strength().unwrap_or(1.0);
+    Material {
+        name: m
+            .name()
+            .map(str::to_owned)
+            .unwrap_or_else(|| format!("material {}", m.index().unwrap_or(0))),
+        base_color: Vec3::new(r, g, b).clamp(Vec3::ZERO, Vec3::ONE),
+        metallic: pbr.metallic_factor().clamp(0.0, 1.0),
+        roughness: pbr.roughness_factor().clamp(0.0, 1.0),
+        specular: specular.clamp(0.0, 1.0),
+        specular_color: specular_color.max(Vec3::ZERO),
+        emission: (Vec3::from(m.emissive_factor()) * strength).max(Vec3::ZERO),
+        double_sided: m.double_sided(),
+    }
+}
+
+struct Loader<'a> {
+    path: &'a Path,
+    buffers: &'a [gltf::buffer::Data],
+    scene: &'a mut Scene,
+    default_material: u32,
+}
+
+/// Node hierarchies deeper than this are treated as cycles (the validator rejects cycles, but
+/// a file may skip validation-relevant data).
+const MAX_NODE_DEPTH: usize = 256;
+
+impl Loader<'_> {
+    fn err(&self, message: String) -> Error {
+        Error::scene(self.path, message)
+    }
+
+    fn visit(&mut self, node: &gltf::Node, parent: Mat4, depth: usize) -> Result<()> {
+        if depth > MAX_NODE_DEPTH {
+            return Err(self.err(format!(
+                "node hierarchy deeper than {MAX_NODE_DEPTH} (a cycle?)"
+            )));
+        }
+        let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
+        let node_name = node
+            .name()
+            .map(str::to_owned)
+            .unwrap_or_else(|| format!("node {}", node.index()));
+        if let Some(mesh) = node.mesh() {
+            self.add_mesh(&mesh, world, &node_name)?;
+        }
+        if let Some(light) = node.light() {
+            self.add_light(&light, world, &node_name);
+        }
+        if let Some(camera) = node.camera() {
+            self.add_camera(&camera, world, &node_name);
+        }
+        for child in node.children() {
+            self.visit(&child, world, depth + 1)?;
+        }
+        Ok(())
+    }
+
+    fn add_mesh(&mut self, mesh: &gltf::Mesh, world: Mat4, node_name: &str) -> Result<()> {
+        let mesh_name = mesh
+            .name()
+            .map(str::to_owned)
+            .unwrap_or_else(|| format!("mesh {}", mesh.index()));
+        let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
+        // A mirroring transform turns counter-clockwise into clockwise: swap to keep the front.
+        let mirrored = Mat3::from_mat4(world).determinant() < 0.0;
+        for prim in mesh.primitives() {
+            let what = format!(
+                "mesh '{mesh_name}' (node '{node_name}') primitive {}",
+                prim.index()
+            );
+            let positions_accessor = prim
+                .get(&gltf::Semantic::Positions)
+                .ok_or_else(|| self.err(format!("{what} has no POSITION attribute")))?;
+            check_accessor(&positions_accessor, self.buffers)
+                .map_err(|m| self.err(format!("{what}: POSITION {m}")))?;
+            let reader = prim.reader(|b| self.buffers.get(b.index()).map(|d| &d.0[..]));
+            let positions: Vec<Vec3> = reader
+                .read_positions()
+                .ok_or_else(|| self.err(format!("{what}: POSITION cannot be read")))?
+                .map(Vec3::from)
+                .collect();
+            let normals: Option<Vec<Vec3>> = match prim.get(&gltf::Semantic::Normals) {
+                Some(acc) => {
+                    check_accessor(&acc, self.buffers)
+                        .map_err(|m| self.err(format!("{what}: NORMAL {m}")))?;
+                    let n: Vec<Vec3> = reader
+                        .read_normals()
+                        .map(|it| it.map(Vec3::from).collect())
+                        .unwrap_or_default();
+                    (n.len() == positions.len()).then_some(n)
+                }
+                None => None,
+            };
+            let indices: Vec<u32> = match prim.indices() {
+                Some(acc) => {
+                    check_accessor(&acc, self.buffers)
+                        .map_err(|m| self.err(format!("{what}: indices {m}")))?;
+                    reader
+                        .read_indices()
+                        .ok_or_else(|| self.err(format!("{what}: indices cannot be read")))?
+                        .into_u32()
+                        .collect()
+                }
+                None => (0..positions.len() as u32).collect(),
+            };
+            if let Some(&bad) = indices.iter().find(|&&i| i as usize >= positions.len()) {
+                return Err(self.err(format!(
+                    "{what}: index {bad} is out of range (the primitive has {} vertices)",
+                    positions.len()
+                )));
+            }
+            let triangles = triangle_list(prim.mode(), &indices)
+                .map_err(|m| self.err(format!("{what}: {m}")))?;
+
+            let material = prim
+                .material()
+                .index()
+                .map(|i| i as u32)
+                .unwrap_or(self.default_material);
+            let first_triangle = self.scene.triangles.len() as u32;
+            for [a, b, c] in triangles {
+                let (b, c) = if mirrored { (c, b) } else { (b, c) };
+                let p = [a, b, c].map(|i| world.transform_point3(positions[i as usize]));
+                let geometric = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero();
+                let n = match &normals {
+                    Some(ns) => [a, b, c].map(|i| {
+                        let n = (normal_matrix * ns[i as usize]).normalize_or_zero();
+                        if n == Vec3::ZERO { geometric } else { n }
+                    }),
+                    None => [geometric; 3],
+                };
+                if p.iter().any(|v| !v.is_finite()) {
+                    return Err(self.err(format!("{what}: a vertex position is not finite")));
+                }
+                self.scene.triangles.push(Triangle { p, n, material });
+            }
+            let m = &self.scene.materials[material as usize];
+            if m.is_emissive() {
+                // Zero-area triangles cannot be sampled or hit: leave them out of the light.
+                let tris: Vec<u32> = (first_triangle..self.scene.triangles.len() as u32)
+                    .filter(|&t| self.scene.triangles[t as usize].area() > 0.0)
+                    .collect();
+                if !tris.is_empty() {
+                    self.scene.lights.push(Light {
+                        name: format!(
+                            "{mesh_name} (node '{node_name}') primitive {}",
+                            prim.index()
+                        ),
+                        kind: LightKind::Area {
+                            triangles: tris,
+                            radiance: m.emission,
+                            double_sided: m.double_sided,
+                        },
+                    });
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn add_light(
+        &mut self,
+        light: &gltf::khr_lights_punctual::Light,
+        world: Mat4,
+        node_name: &str,
+    ) {
+        use gltf::khr_lights_punctual::Kind;
+        let color = Vec3::from(light.color()).max(Vec3::ZERO) * light.intensity().max(0.0);
+        let position = world.transform_point3(Vec3::ZERO);
+        let direction = world.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z);
+        let name = light
+            .name()
+            .map(str::to_owned)
+            .unwrap_or_else(|| format!("light of node '{node_name}'"));
+        if light.range().is_some() {
+            self.scene.warnings.push(format!(
+                "{name}: `range` is ignored; lights fall off with the inverse square law"
+            ));
+        }
+        let kind = match light.kind() {
+            Kind::Point => LightKind::Point {
+                position,
+                intensity: color,
+            },
+            Kind::Directional => LightKind::Directional {
+                direction,
+                irradiance: color,
+            },
+            Kind::Spot {
+                inner_cone_angle,
+                outer_cone_angle,
+            } => LightKind::Spot {
+                position,
+                direction,
+                intensity: color,
+                inner_cone: inner_cone_angle.max(0.0),
+                outer_cone: outer_cone_angle.max(inner_cone_angle),
+            },
+        };
+        self.scene.lights.push(Light { name, kind });
+    }
+
+    fn add_camera(&mut self, camera: &gltf::Camera, world: Mat4, node_name: &str) {
+        let name = camera
+            .name()
+            .map(str::to_owned)
+            .unwrap_or_else(|| node_name.to_owned());
+        match camera.projection() {
+            gltf::camera::Projection::Perspective(p) => {
+                let forward = world.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z);
+                let up_raw = world.transform_vector3(Vec3::Y);
+                let right = forward.cross(up_raw).normalize_or(Vec3::X);
+                self.scene.cameras.push(Camera {
+                    name,
+                    position: world.transform_point3(Vec3::ZERO),
+                    forward,
+                    up: right.cross(forward),
+                    yfov: p.yfov().clamp(1e-4, 3.1),
+                });
+            }
+            gltf::camera::Projection::Orthographic(_) => {
+                self.scene.warnings.push(format!(
+                    "camera '{name}' is orthographic, which is not supported; skipped"
+                ));
+            }
+        }
+    }
+}
+
+/// Triangles of a primitive as vertex-index triples, from its mode and index list.
+fn triangle_list(mode: Mode, idx: &[u32]) -> std::result::Result<Vec<[u32; 3]>, String> {
+    Ok(match mode {
+        Mode::Triangles => idx.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
+        // glTF §3.7.2.1: strip triangle i is (i, i+1, i+2) for even i, (i+1, i, i+2) for odd i.
+        Mode::TriangleStrip => (0..idx.len().saturating_sub(2))
+            .map(|i| {
+                if i % 2 == 0 {
+                    [idx[i], idx[i + 1], idx[i + 2]]
+                } else {
+                    [idx[i + 1], idx[i], idx[i + 2]]
+                }
+            })
+            .collect(),
+        Mode::TriangleFan => (1..idx.len().saturating_sub(1))
+            .map(|i| [idx[i], idx[i + 1], idx[0]])
+            .collect(),
+        other => {
+            return Err(format!(
+                "primitive mode {other:?} is not supported (only triangles are rendered)"
+            ));
+        }
+    })
+}
+
+/// Checks that an accessor's bytes lie inside its buffer view and buffer, so that reading it
+/// cannot go out of bounds.
+fn check_accessor(
+    acc: &gltf::Accessor,
+    buffers: &[gltf::buffer::Data],
+) -> std::result::Result<(), String> {
+    let Some(view) = acc.view() else {
+        return if acc.sparse().is_some() {
+            Ok(())
+        } else {
+            Err("has no buffer view".into())
+        };
+    };
+    let buffer_len = buffers
+        .get(view.buffer().index())
+        .map(|d| d.0.len())
+        .ok_or("refers to a missing buffer")?;
+    if view.offset() + view.length() > buffer_len {
+        return Err(format!(
+            "buffer view {} (bytes {}..{}) lies outside its buffer of {} bytes",
+            view.index(),
+            view.offset(),
+            view.offset() + view.length(),
+            buffer_len
+        ));
+    }
+    if acc.count() == 0 {
+        return Ok(());
+    }
+    let elem = acc.size();
+    let stride = view.stride().unwrap_or(elem);
+    let end = acc.offset() + stride * (acc.count() - 1) + elem;
+    if end > view.length() {
+        return Err(format!(
+            "accessor {} needs {end} bytes but its buffer view has {}",
+            acc.index(),
+            view.length()
+        ));
+    }
+    Ok(())
+}

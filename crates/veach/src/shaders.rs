@@ -1,0 +1,98 @@
+//! The WGSL kernel, composed at load time from one file per concept in `shaders/`.
+
+/// The shader files in the order they are joined. Later files use what earlier ones declare.
+pub const SHADER_FILES: &[(&str, &str)] = &[
+    ("layout.wgsl", include_str!("../../../shaders/layout.wgsl")),
+    ("rng.wgsl", include_str!("../../../shaders/rng.wgsl")),
+    (
+        "sampling.wgsl",
+        include_str!("../../../shaders/sampling.wgsl"),
+    ),
+    ("camera.wgsl", include_str!("../../../shaders/camera.wgsl")),
+    (
+        "traverse.wgsl",
+        include_str!("../../../shaders/traverse.wgsl"),
+    ),
+    ("bsdf.wgsl", include_str!("../../../shaders/bsdf.wgsl")),
+    ("lights.wgsl", include_str!("../../../shaders/lights.wgsl")),
+    ("mis.wgsl", include_str!("../../../shaders/mis.wgsl")),
+    (
+        "integrator.wgsl",
+        include_str!("../../../shaders/integrator.wgsl"),
+    ),
+];
+
+/// Name of the compute entry point in `integrator.wgsl`.
+pub const RENDER_ENTRY_POINT: &str = "render";
+
+/// The whole kernel source. Each file is preceded by a marker comment so that a line number in
+/// a WGSL error can be traced back to its file.
+pub fn render_kernel_source() -> String {
+    let mut source = String::new();
+    for (name, text) in SHADER_FILES {
+        source.push_str(&format!("// ---- shaders/{name} ----\n"));
+        source.push_str(text);
+        source.push('\n');
+    }
+    source
+}
+
+/// Parses and validates WGSL with naga, returning a readable error that names the file and line.
+pub fn validate_wgsl(source: &str) -> Result<naga::Module, String> {
+    let module = naga::front::wgsl::parse_str(source).map_err(|e| e.emit_to_string(source))?;
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::default(),
+    )
+    .validate(&module)
+    .map_err(|e| e.emit_to_string(source))?;
+    Ok(module)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn all_wgsl_validates_with_naga() {
+        let source = render_kernel_source();
+        let module = validate_wgsl(&source).unwrap_or_else(|e| panic!("WGSL invalid:\n{e}"));
+        assert!(
+            module
+                .entry_points
+                .iter()
+                .any(|e| e.name == RENDER_ENTRY_POINT && e.stage == naga::ShaderStage::Compute),
+            "no compute entry point `{RENDER_ENTRY_POINT}`"
+        );
+    }
+
+    #[test]
+    fn layout_matches_wgsl() {
+        let source = SHADER_FILES[0].1;
+        let module = validate_wgsl(source).unwrap_or_else(|e| panic!("layout.wgsl invalid:\n{e}"));
+        let mut layouter = naga::proc::Layouter::default();
+        layouter.update(module.to_ctx()).unwrap();
+        for (name, size, fields) in crate::gpu::layout::rust_layouts() {
+            let (handle, ty) = module
+                .types
+                .iter()
+                .find(|(_, t)| t.name.as_deref() == Some(name))
+                .unwrap_or_else(|| panic!("struct {name} missing from layout.wgsl"));
+            let naga::TypeInner::Struct { members, span } = &ty.inner else {
+                panic!("{name} is not a struct in WGSL");
+            };
+            assert_eq!(
+                *span as usize, size,
+                "size of {name}: WGSL {span}, Rust {size}"
+            );
+            assert_eq!(layouter[handle].size as usize, size);
+            for (field, offset) in fields {
+                let m = members
+                    .iter()
+                    .find(|m| m.name.as_deref() == Some(field))
+                    .unwrap_or_else(|| panic!("{name}.{field} missing in WGSL"));
+                assert_eq!(m.offset as usize, offset, "offset of {name}.{field}");
+            }
+        }
+    }
+}

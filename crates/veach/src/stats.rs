@@ -1,0 +1,126 @@
+//! The `--stats` JSON report of a render.
+
+use crate::render::{GpuScene, RenderOutput, RenderSettings, Renderer};
+use crate::scene::Scene;
+use serde::Serialize;
+
+#[derive(Serialize)]
+pub struct RenderStats {
+    pub adapter: String,
+    pub backend: String,
+    pub device_type: String,
+    pub scene: SceneCounts,
+    pub settings: SettingsReport,
+    pub timings_seconds: Timings,
+    pub samples_per_pixel: SamplesReport,
+    pub rays: u64,
+    pub rays_per_second: f64,
+    pub nonfinite_samples_dropped: u64,
+    pub dispatches: u32,
+    pub interrupted: bool,
+}
+
+#[derive(Serialize)]
+pub struct SceneCounts {
+    pub triangles: usize,
+    pub emissive_triangles: usize,
+    pub lights: usize,
+    pub area_lights: usize,
+    pub delta_lights: usize,
+    pub materials: usize,
+    pub bvh_nodes: usize,
+    pub bvh_sah_cost: f32,
+    pub gpu_scene_bytes: u64,
+}
+
+#[derive(Serialize)]
+pub struct SettingsReport {
+    pub width: u32,
+    pub height: u32,
+    pub strategy: String,
+    pub light_samples: u32,
+    pub brdf_samples: u32,
+    pub heuristic: String,
+    pub light_selection: String,
+    pub seed: u32,
+    pub camera: String,
+}
+
+#[derive(Serialize)]
+pub struct Timings {
+    pub load: f64,
+    pub bvh_build: f64,
+    pub upload: f64,
+    pub pipeline_creation: f64,
+    pub render: f64,
+}
+
+#[derive(Serialize)]
+pub struct SamplesReport {
+    pub requested: u32,
+    pub min: u32,
+    pub mean: f64,
+}
+
+pub fn render_stats(
+    scene: &Scene,
+    renderer: &Renderer,
+    gpu_scene: &GpuScene,
+    settings: &RenderSettings,
+    camera_name: &str,
+    load_seconds: f64,
+    out: &RenderOutput,
+) -> RenderStats {
+    let info = &renderer.gpu.adapter_info;
+    let setup = &gpu_scene.stats;
+    let render = out.render_time.as_secs_f64();
+    let delta = scene.lights.iter().filter(|l| l.is_delta()).count();
+    RenderStats {
+        adapter: info.name.clone(),
+        backend: format!("{:?}", info.backend),
+        device_type: format!("{:?}", info.device_type),
+        scene: SceneCounts {
+            triangles: scene.triangles.len(),
+            emissive_triangles: scene.emissive_triangle_count(),
+            lights: scene.lights.len(),
+            area_lights: scene.lights.len() - delta,
+            delta_lights: delta,
+            materials: scene.materials.len(),
+            bvh_nodes: setup.bvh_nodes,
+            bvh_sah_cost: setup.bvh_sah_cost,
+            gpu_scene_bytes: setup.gpu_scene_bytes,
+        },
+        settings: SettingsReport {
+            width: settings.width,
+            height: settings.height,
+            strategy: settings.strategy.name().into(),
+            light_samples: settings.light_samples,
+            brdf_samples: settings.brdf_samples,
+            heuristic: format!("{:?}", settings.heuristic).to_lowercase(),
+            light_selection: format!("{:?}", settings.light_selection).to_lowercase(),
+            seed: settings.seed,
+            camera: camera_name.into(),
+        },
+        timings_seconds: Timings {
+            load: load_seconds,
+            bvh_build: setup.bvh_build.as_secs_f64(),
+            upload: setup.upload.as_secs_f64(),
+            pipeline_creation: renderer.pipeline_creation.as_secs_f64(),
+            render,
+        },
+        samples_per_pixel: SamplesReport {
+            requested: settings.spp,
+            min: out.min_samples(),
+            mean: out.mean_samples(),
+        },
+        rays: out.rays,
+        rays_per_second: if render > 0.0 {
+            out.rays as f64 / render
+        } else {
+            0.0
+        },
+        nonfinite_samples_dropped: out.nonfinite_samples,
+        dispatches: out.dispatches,
+        interrupted: out.interrupted,
+    }
+}

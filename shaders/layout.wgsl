@@ -1,0 +1,152 @@
+// layout.wgsl: the Rust <-> GPU data layout, read by both sides.
+// Every struct here has a #[repr(C)] twin in crates/veach/src/gpu/layout.rs with the same name;
+// the unit test `layout_matches_wgsl` checks sizes and member offsets with naga's layouter,
+// so the two cannot drift apart silently.
+
+// Strategy, heuristic and light-selection codes (FrameParams.strategy etc.).
+const STRATEGY_UNIFORM: u32 = 0u;
+const STRATEGY_BRDF: u32 = 1u;
+const STRATEGY_LIGHT: u32 = 2u;
+const STRATEGY_MIS: u32 = 3u;
+
+const HEURISTIC_BALANCE: u32 = 0u;
+const HEURISTIC_POWER: u32 = 1u;
+
+const SELECT_EACH: u32 = 0u;
+const SELECT_UNIFORM: u32 = 1u;
+const SELECT_POWER: u32 = 2u;
+
+const LIGHT_AREA: u32 = 0u;
+const LIGHT_POINT: u32 = 1u;
+const LIGHT_SPOT: u32 = 2u;
+const LIGHT_DIRECTIONAL: u32 = 3u;
+
+const NO_LIGHT: u32 = 0xffffffffu;
+
+// Pinhole camera: a primary ray through film position (sx, sy) in [-1, 1]^2 has the direction
+// forward + sx * right + sy * up (right and up already scaled by tan(fov/2) and the aspect).
+struct Camera {
+    origin: vec3f,
+    _pad0: f32,
+    forward: vec3f,
+    _pad1: f32,
+    right: vec3f,
+    _pad2: f32,
+    up: vec3f,
+    _pad3: f32,
+}
+
+struct FrameParams {
+    camera: Camera,
+    width: u32,
+    height: u32,
+    // Rows [row_start, row_start + row_count) are rendered by this dispatch.
+    row_start: u32,
+    row_count: u32,
+    // Camera samples [sample_start, sample_start + sample_count) of every pixel in those rows.
+    sample_start: u32,
+    sample_count: u32,
+    seed: u32,
+    strategy: u32,
+    light_samples: u32,
+    brdf_samples: u32,
+    heuristic: u32,
+    light_selection: u32,
+    light_count: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+// BVH2 node, 32 bytes. Inner node (count == 0): children at nodes[first] and nodes[first + 1].
+// Leaf (count > 0): triangles [first, first + count) of the BVH-ordered triangle arrays.
+struct BvhNode {
+    min: vec3f,
+    first: u32,
+    max: vec3f,
+    count: u32,
+}
+
+// Triangle vertex positions in world space, in BVH order.
+struct TriangleVerts {
+    p0: vec3f,
+    _pad0: f32,
+    p1: vec3f,
+    _pad1: f32,
+    p2: vec3f,
+    _pad2: f32,
+}
+
+// Per-triangle shading data, in the same (BVH) order as TriangleVerts.
+struct TriangleShading {
+    n0: vec3f,
+    material: u32,
+    n1: vec3f,
+    // Index into `lights` of the area light this triangle belongs to, or NO_LIGHT.
+    light: u32,
+    n2: vec3f,
+    _pad: u32,
+}
+
+// glTF metallic-roughness material with KHR_materials_specular and emission.
+struct Material {
+    base_color: vec3f,
+    metallic: f32,
+    // Emitted radiance: emissiveFactor * KHR_materials_emissive_strength.
+    emission: vec3f,
+    roughness: f32,
+    specular_color: vec3f,
+    specular: f32,
+    // 1 when the material is doubleSided: emitters then emit from both faces.
+    double_sided: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+// One light. Area lights own emitter triangles [first_tri, first_tri + tri_count).
+// `intensity` is radiance (area), radiant intensity in W/sr (point, spot) or irradiance in
+// W/m^2 (directional). `direction` is where spot and directional light travels.
+struct Light {
+    kind: u32,
+    first_tri: u32,
+    tri_count: u32,
+    double_sided: u32,
+    position: vec3f,
+    area: f32,
+    direction: vec3f,
+    cos_inner: f32,
+    intensity: vec3f,
+    cos_outer: f32,
+}
+
+// A triangle of an area light. `cdf` is the light's area CDF at the end of this triangle.
+struct EmitterTriangle {
+    p0: vec3f,
+    cdf: f32,
+    e1: vec3f,
+    area: f32,
+    e2: vec3f,
+    light: u32,
+}
+
+// Per-pixel counters kept by the kernel.
+struct PixelCounters {
+    rays: u32,
+    nonfinite: u32,
+}
+
+@group(0) @binding(0) var<uniform> frame: FrameParams;
+@group(0) @binding(1) var<storage, read> bvh_nodes: array<BvhNode>;
+@group(0) @binding(2) var<storage, read> tri_verts: array<TriangleVerts>;
+@group(0) @binding(3) var<storage, read> tri_shading: array<TriangleShading>;
+@group(0) @binding(4) var<storage, read> materials: array<Material>;
+@group(0) @binding(5) var<storage, read> lights: array<Light>;
+@group(0) @binding(6) var<storage, read> emitter_tris: array<EmitterTriangle>;
+// Cumulative light power, normalised: light i is chosen by power with probability
+// light_power_cdf[i] - light_power_cdf[i - 1].
+@group(0) @binding(7) var<storage, read> light_power_cdf: array<f32>;
+// Running sums per pixel: (sum of radiance, number of camera samples) and (sum of squares, 0).
+@group(0) @binding(8) var<storage, read_write> accum: array<vec4f>;
+@group(0) @binding(9) var<storage, read_write> accum_sq: array<vec4f>;
+@group(0) @binding(10) var<storage, read_write> counters: array<PixelCounters>;

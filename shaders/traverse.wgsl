@@ -1,0 +1,226 @@
+// traverse.wgsl: BVH2 traversal with a closest-hit query (camera and BRDF rays) and an any-hit
+// query (shadow rays), over a watertight ray/triangle test.
+
+const BVH_STACK_SIZE: u32 = 64u;
+const RAY_INF: f32 = 3.0e38;
+
+struct Hit {
+    t: f32,
+    // Barycentrics of p1 and p2.
+    b1: f32,
+    b2: f32,
+    tri: u32,
+    found: bool,
+}
+
+// Precomputed per-ray constants of the watertight test.
+struct RayShear {
+    kx: u32,
+    ky: u32,
+    kz: u32,
+    s: vec3f,
+}
+
+fn max_dim(v: vec3f) -> u32 {
+    if v.x > v.y {
+        return select(2u, 0u, v.x > v.z);
+    }
+    return select(2u, 1u, v.y > v.z);
+}
+
+fn component(v: vec3f, i: u32) -> f32 {
+    var w = v;
+    return w[i];
+}
+
+// Woop, Benthin & Wald, "Watertight Ray/Triangle Intersection", JCGT 2(1), 2013, §3.
+fn ray_shear(dir: vec3f) -> RayShear {
+    let kz = max_dim(abs(dir));
+    var kx = (kz + 1u) % 3u;
+    var ky = (kx + 1u) % 3u;
+    // Swap kx and ky to keep the winding of the triangle when the dominant axis is negative.
+    if component(dir, kz) < 0.0 {
+        let tmp = kx;
+        kx = ky;
+        ky = tmp;
+    }
+    let dz = component(dir, kz);
+    let s = vec3f(component(dir, kx) / dz, component(dir, ky) / dz, 1.0 / dz);
+    return RayShear(kx, ky, kz, s);
+}
+
+// Returns (t, b1, b2) on a hit with t in (0, t_max), otherwise t = -1.
+fn intersect_triangle(origin: vec3f, sh: RayShear, p0: vec3f, p1: vec3f, p2: vec3f, t_max: f32) -> vec3f {
+    let a = p0 - origin;
+    let b = p1 - origin;
+    let c = p2 - origin;
+    let az = component(a, sh.kz);
+    let bz = component(b, sh.kz);
+    let cz = component(c, sh.kz);
+    let ax = component(a, sh.kx) - sh.s.x * az;
+    let ay = component(a, sh.ky) - sh.s.y * az;
+    let bx = component(b, sh.kx) - sh.s.x * bz;
+    let by = component(b, sh.ky) - sh.s.y * bz;
+    let cx = component(c, sh.kx) - sh.s.x * cz;
+    let cy = component(c, sh.ky) - sh.s.y * cz;
+    var u = cx * by - cy * bx;
+    var v = ax * cy - ay * cx;
+    var w = bx * ay - by * ax;
+    // Edge functions exactly zero: recompute in double precision, as the paper prescribes.
+    // WGSL has no portable f64, so we fall back to treating the edge as inside; the
+    // consistent sign test below still makes shared edges watertight.
+    if (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0) {
+        return vec3f(-1.0, 0.0, 0.0);
+    }
+    let det = u + v + w;
+    if det == 0.0 {
+        return vec3f(-1.0, 0.0, 0.0);
+    }
+    let t_scaled = u * sh.s.z * az + v * sh.s.z * bz + w * sh.s.z * cz;
+    // t = t_scaled / det must lie in (0, t_max); compare without dividing, sign-aware.
+    if det < 0.0 && (t_scaled >= 0.0 || t_scaled < t_max * det) {
+        return vec3f(-1.0, 0.0, 0.0);
+    }
+    if det > 0.0 && (t_scaled <= 0.0 || t_scaled > t_max * det) {
+        return vec3f(-1.0, 0.0, 0.0);
+    }
+    let inv_det = 1.0 / det;
+    return vec3f(t_scaled * inv_det, v * inv_det, w * inv_det);
+}
+
+// Slab test; returns the entry distance or RAY_INF on a miss. The exit distance is scaled by
+// 1 + 2 * gamma(3) so that rounding cannot make a box the ray grazes look missed
+// (Ize, "Robust BVH Ray Traversal", JCGT 2(2), 2013).
+fn intersect_aabb(origin: vec3f, inv_dir: vec3f, bmin: vec3f, bmax: vec3f, t_max: f32) -> f32 {
+    let t0 = (bmin - origin) * inv_dir;
+    let t1 = (bmax - origin) * inv_dir;
+    let tnear = max(max(min(t0.x, t1.x), min(t0.y, t1.y)), max(min(t0.z, t1.z), 0.0));
+    let tfar = min(min(max(t0.x, t1.x), max(t0.y, t1.y)), min(max(t0.z, t1.z), t_max)) * 1.0000004;
+    return select(RAY_INF, tnear, tnear <= tfar);
+}
+
+fn safe_inverse(d: vec3f) -> vec3f {
+    // A zero component would give inf * 0 = NaN in the slab test when the origin lies on a slab.
+    let tiny = 1.0e-30;
+    let dd = select(d, select(vec3f(-tiny), vec3f(tiny), d >= vec3f(0.0)), abs(d) < vec3f(tiny));
+    return 1.0 / dd;
+}
+
+// Closest hit along origin + t * dir, t in (0, t_max).
+fn trace_closest(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
+    var hit = Hit(t_max, 0.0, 0.0, 0u, false);
+    let sh = ray_shear(dir);
+    let inv_dir = safe_inverse(dir);
+    var stack: array<u32, BVH_STACK_SIZE>;
+    var sp = 0u;
+    var node_index = 0u;
+    if intersect_aabb(origin, inv_dir, bvh_nodes[0].min, bvh_nodes[0].max, hit.t) == RAY_INF {
+        return hit;
+    }
+    loop {
+        let node = bvh_nodes[node_index];
+        if node.count > 0u {
+            for (var i = node.first; i < node.first + node.count; i++) {
+                let tri = tri_verts[i];
+                let r = intersect_triangle(origin, sh, tri.p0, tri.p1, tri.p2, hit.t);
+                if r.x > 0.0 {
+                    hit = Hit(r.x, r.y, r.z, i, true);
+                }
+            }
+        } else {
+            // Ordered traversal: visit the nearer child first, push the farther one.
+            let left = bvh_nodes[node.first];
+            let right = bvh_nodes[node.first + 1u];
+            let tl = intersect_aabb(origin, inv_dir, left.min, left.max, hit.t);
+            let tr = intersect_aabb(origin, inv_dir, right.min, right.max, hit.t);
+            if tl != RAY_INF && tr != RAY_INF {
+                let near_is_left = tl <= tr;
+                node_index = select(node.first + 1u, node.first, near_is_left);
+                if sp < BVH_STACK_SIZE {
+                    stack[sp] = select(node.first, node.first + 1u, near_is_left);
+                    sp++;
+                }
+                continue;
+            }
+            if tl != RAY_INF {
+                node_index = node.first;
+                continue;
+            }
+            if tr != RAY_INF {
+                node_index = node.first + 1u;
+                continue;
+            }
+        }
+        if sp == 0u {
+            break;
+        }
+        sp--;
+        node_index = stack[sp];
+    }
+    return hit;
+}
+
+// Any hit along origin + t * dir, t in (0, t_max): true when the segment is blocked.
+fn trace_occluded(origin: vec3f, dir: vec3f, t_max: f32) -> bool {
+    let sh = ray_shear(dir);
+    let inv_dir = safe_inverse(dir);
+    var stack: array<u32, BVH_STACK_SIZE>;
+    var sp = 0u;
+    var node_index = 0u;
+    if intersect_aabb(origin, inv_dir, bvh_nodes[0].min, bvh_nodes[0].max, t_max) == RAY_INF {
+        return false;
+    }
+    loop {
+        let node = bvh_nodes[node_index];
+        if node.count > 0u {
+            for (var i = node.first; i < node.first + node.count; i++) {
+                let tri = tri_verts[i];
+                if intersect_triangle(origin, sh, tri.p0, tri.p1, tri.p2, t_max).x > 0.0 {
+                    return true;
+                }
+            }
+        } else {
+            let tl = intersect_aabb(origin, inv_dir, bvh_nodes[node.first].min, bvh_nodes[node.first].max, t_max);
+            let tr = intersect_aabb(origin, inv_dir, bvh_nodes[node.first + 1u].min, bvh_nodes[node.first + 1u].max, t_max);
+            if tl != RAY_INF && tr != RAY_INF {
+                node_index = node.first;
+                if sp < BVH_STACK_SIZE {
+                    stack[sp] = node.first + 1u;
+                    sp++;
+                }
+                continue;
+            }
+            if tl != RAY_INF {
+                node_index = node.first;
+                continue;
+            }
+            if tr != RAY_INF {
+                node_index = node.first + 1u;
+                continue;
+            }
+        }
+        if sp == 0u {
+            break;
+        }
+        sp--;
+        node_index = stack[sp];
+    }
+    return false;
+}
+
+// Ray origin pushed off a surface along its geometric normal, on the side `dir` leaves by.
+// Wächter & Binder, "A Fast and Robust Method for Avoiding Self-Intersection", Ray Tracing
+// Gems, ch. 6, 2019: offset in integer ULPs far from the origin, by a fixed epsilon near it.
+fn offset_ray_origin(p: vec3f, ng: vec3f, dir: vec3f) -> vec3f {
+    let n = select(-ng, ng, dot(ng, dir) >= 0.0);
+    let origin_eps = 1.0 / 32.0;
+    let float_scale = 1.0 / 65536.0;
+    let int_scale = 256.0;
+    let of_i = vec3i(int_scale * n);
+    let p_i = vec3f(
+        bitcast<f32>(bitcast<i32>(p.x) + select(of_i.x, -of_i.x, p.x < 0.0)),
+        bitcast<f32>(bitcast<i32>(p.y) + select(of_i.y, -of_i.y, p.y < 0.0)),
+        bitcast<f32>(bitcast<i32>(p.z) + select(of_i.z, -of_i.z, p.z < 0.0)),
+    );
+    return select(p_i, p + float_scale * n, abs(p) < vec3f(origin_eps));
+}

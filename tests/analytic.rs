@@ -1,0 +1,421 @@
+//! Renders compared with closed-form answers: a Lambertian plane under a rectangular area light
+//! (irradiance from the point-to-rectangle form factor), a point light, a spot light and a
+//! directional light. Every strategy's image must match within its own confidence interval.
+
+mod common;
+
+use common::*;
+use glam::Vec3;
+use std::f64::consts::PI;
+use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
+use veach::scene::Camera;
+use veach::{Heuristic, LightSelection, RenderSettings, Strategy};
+
+const ALBEDO: f64 = 0.5;
+const SIZE: u32 = 16;
+const BLOCK: u32 = 4;
+
+/// Form factor from a point to a parallel rectangle [0,a]×[0,b] at height h, the point below
+/// one corner (Howell, "A Catalog of Radiation Heat Transfer Configuration Factors", C-11).
+fn corner_form_factor(a: f64, b: f64, h: f64) -> f64 {
+    let (x, y) = (a / h, b / h);
+    let sx = (1.0 + x * x).sqrt();
+    let sy = (1.0 + y * y).sqrt();
+    (x / sx * (y / sx).atan() + y / sy * (x / sy).atan()) / (2.0 * PI)
+}
+
+/// Form factor from a point (px, pz) on the plane y = 0 to the rectangle [x0,x1]×[z0,z1] at
+/// height h facing down, by inclusion-exclusion over the four corner rectangles.
+fn rect_form_factor(px: f64, pz: f64, x0: f64, x1: f64, z0: f64, z1: f64, h: f64) -> f64 {
+    let f =
+        |dx: f64, dz: f64| dx.signum() * dz.signum() * corner_form_factor(dx.abs(), dz.abs(), h);
+    f(x1 - px, z1 - pz) - f(x0 - px, z1 - pz) - f(x1 - px, z0 - pz) + f(x0 - px, z0 - pz)
+}
+
+fn plane_camera() -> Camera {
+    Camera::look_at(
+        "down",
+        Vec3::new(0.0, 0.5, 0.0),
+        Vec3::ZERO,
+        Vec3::Z,
+        60f32.to_radians(),
+    )
+}
+
+/// Average of `radiance(point on the plane)` over each pixel (8×8 sub-pixel grid, matching the
+/// renderer's box filter), following the camera model of `shaders/camera.wgsl`.
+fn expected_image(camera: &Camera, radiance: impl Fn(f64, f64) -> f64) -> Vec<f64> {
+    let g = camera.to_gpu(SIZE, SIZE);
+    let (o, f, r, u) = (
+        Vec3::from(g.origin),
+        Vec3::from(g.forward),
+        Vec3::from(g.right),
+        Vec3::from(g.up),
+    );
+    let mut out = Vec::new();
+    for py in 0..SIZE {
+        for px in 0..SIZE {
+            let mut sum = 0.0;
+            for j in 0..8 {
+                for i in 0..8 {
+                    let sx = 2.0 * (px as f32 + (i as f32 + 0.5) / 8.0) / SIZE as f32 - 1.0;
+                    let sy = 1.0 - 2.0 * (py as f32 + (j as f32 + 0.5) / 8.0) / SIZE as f32;
+                    let d = (f + sx * r + sy * u).normalize();
+                    let t = -o.y / d.y;
+                    let p = o + t * d;
+                    sum += radiance(p.x as f64, p.z as f64);
+                }
+            }
+            out.push(sum / 64.0);
+        }
+    }
+    out
+}
+
+fn plane(g: &mut GltfBuilder) {
+    let m = g.material(&MaterialDesc::lambert("plane", Vec3::splat(ALBEDO as f32)));
+    let s = 20.0;
+    let quad = MeshData::quad(
+        Vec3::new(-s, 0., -s),
+        Vec3::new(s, 0., -s),
+        Vec3::new(s, 0., s),
+        Vec3::new(-s, 0., s),
+        Vec3::Y,
+    );
+    g.add_mesh("plane", &quad, m, glam::Mat4::IDENTITY);
+}
+
+struct Case {
+    name: String,
+    settings: RenderSettings,
+    expected: Vec<f64>,
+}
+
+/// Checks every BLOCK×BLOCK region of every case against its expected mean, with a z bound
+/// from the Bonferroni correction over all comparisons at family-wise significance 1e-4, plus
+/// 1e-5 relative for float rounding in the kernel's sums.
+fn check_cases(test: &str, scene: &veach::Scene, cases: &[Case]) {
+    let gpu_scene = upload(scene);
+    let camera = plane_camera();
+    let regions = (SIZE / BLOCK) * (SIZE / BLOCK);
+    let z = bonferroni_z(1e-4, cases.len() * regions as usize);
+    let mut failures = Vec::new();
+    for case in cases {
+        let out = render(&gpu_scene, &case.settings, &camera);
+        assert_eq!(
+            out.nonfinite_samples, 0,
+            "{}: non-finite samples",
+            case.name
+        );
+        for by in 0..SIZE / BLOCK {
+            for bx in 0..SIZE / BLOCK {
+                let est = region(
+                    &out,
+                    bx * BLOCK,
+                    by * BLOCK,
+                    (bx + 1) * BLOCK,
+                    (by + 1) * BLOCK,
+                );
+                let mut expected = 0.0;
+                for y in by * BLOCK..(by + 1) * BLOCK {
+                    for x in bx * BLOCK..(bx + 1) * BLOCK {
+                        expected += case.expected[(y * SIZE + x) as usize];
+                    }
+                }
+                expected /= (BLOCK * BLOCK) as f64;
+                let sigma = est.var[0].sqrt();
+                let tol = z * sigma + 1e-5 * expected;
+                if (est.mean[0] - expected).abs() > tol {
+                    failures.push(format!(
+                        "{}: region ({bx},{by}) mean {:.6} expected {:.6} (σ {:.2e}, |Δ|/σ {:.1}, z {:.2})",
+                        case.name,
+                        est.mean[0],
+                        expected,
+                        sigma,
+                        (est.mean[0] - expected).abs() / sigma.max(1e-30),
+                        z
+                    ));
+                }
+            }
+        }
+        if failures.iter().any(|f| f.starts_with(&case.name)) {
+            let exp: Vec<[f32; 3]> = case.expected.iter().map(|&v| [v as f32; 3]).collect();
+            let dir = write_failure_images(
+                test,
+                &[
+                    (&format!("{}-rendered", case.name), SIZE, SIZE, out.mean()),
+                    (&format!("{}-expected", case.name), SIZE, SIZE, exp),
+                ],
+            );
+            eprintln!("images written to {}", dir.display());
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "{} region(s) off:\n{}",
+        failures.len(),
+        failures.join("\n")
+    );
+}
+
+fn settings(
+    strategy: Strategy,
+    spp: u32,
+    light: u32,
+    brdf: u32,
+    selection: LightSelection,
+    heuristic: Heuristic,
+) -> RenderSettings {
+    RenderSettings {
+        width: SIZE,
+        height: SIZE,
+        spp,
+        strategy,
+        light_samples: light,
+        brdf_samples: brdf,
+        light_selection: selection,
+        heuristic,
+        seed: 7,
+        ..Default::default()
+    }
+}
+
+#[test]
+fn area_and_point_light_on_a_lambertian_plane_match_the_closed_form() {
+    let (x0, x1, z0, z1, h) = (-0.5, 0.7, -0.6, 0.4, 1.0);
+    let le = 4.0;
+    let point = Vec3::new(0.1, 0.8, -0.05);
+    let intensity = 0.6;
+    let mut g = GltfBuilder::new();
+    plane(&mut g);
+    let light = g.material(&MaterialDesc::emitter("light", Vec3::splat(le as f32)));
+    let quad = MeshData::quad(
+        Vec3::new(x0 as f32, h as f32, z0 as f32),
+        Vec3::new(x1 as f32, h as f32, z0 as f32),
+        Vec3::new(x1 as f32, h as f32, z1 as f32),
+        Vec3::new(x0 as f32, h as f32, z1 as f32),
+        -Vec3::Y,
+    );
+    g.add_mesh("area light", &quad, light, glam::Mat4::IDENTITY);
+    g.punctual_light(
+        "point",
+        "point",
+        Vec3::ONE,
+        intensity,
+        point,
+        Vec3::ZERO,
+        None,
+    );
+    let scene = load(&g, "analytic-area-point");
+    let camera = plane_camera();
+
+    // Lambert: L_o = ρ/π E; area light E = π L_e F; point light E = I cos θ / r².
+    let area = expected_image(&camera, |x, z| {
+        ALBEDO * le * rect_form_factor(x, z, x0, x1, z0, z1, h)
+    });
+    let point_part = expected_image(&camera, |x, z| {
+        let d = Vec3::new(point.x - x as f32, point.y, point.z - z as f32).as_dvec3();
+        let r2 = d.length_squared();
+        ALBEDO / PI * intensity as f64 * (d.y / r2.sqrt()) / r2
+    });
+    let both: Vec<f64> = area.iter().zip(&point_part).map(|(a, b)| a + b).collect();
+
+    use LightSelection::{Each, Uniform};
+    let (balance, power) = (Heuristic::Balance, Heuristic::Power);
+    let by_power = LightSelection::Power;
+    let cases = [
+        // Uniform and BRDF sampling cannot reach the point light: they must see the area light alone.
+        (
+            "uniform",
+            settings(Strategy::Uniform, 32, 0, 256, Each, balance),
+            &area,
+        ),
+        (
+            "brdf",
+            settings(Strategy::Brdf, 32, 0, 64, Each, balance),
+            &area,
+        ),
+        (
+            "light-each",
+            settings(Strategy::Light, 32, 16, 0, Each, balance),
+            &both,
+        ),
+        (
+            "light-uniform",
+            settings(Strategy::Light, 32, 16, 0, Uniform, balance),
+            &both,
+        ),
+        (
+            "light-power",
+            settings(Strategy::Light, 32, 16, 0, by_power, balance),
+            &both,
+        ),
+        (
+            "mis-balance",
+            settings(Strategy::Mis, 32, 8, 8, Each, balance),
+            &both,
+        ),
+        (
+            "mis-power",
+            settings(Strategy::Mis, 32, 8, 8, by_power, power),
+            &both,
+        ),
+        (
+            "mis-brdf-only",
+            settings(Strategy::Mis, 32, 0, 16, Each, balance),
+            &area,
+        ),
+    ];
+    let cases: Vec<Case> = cases
+        .into_iter()
+        .map(|(n, s, e)| Case {
+            name: n.into(),
+            settings: s,
+            expected: e.clone(),
+        })
+        .collect();
+    check_cases("area-and-point", &scene, &cases);
+}
+
+#[test]
+fn spot_and_directional_lights_match_the_closed_form() {
+    let spot_pos = Vec3::new(0.0, 0.6, 0.05);
+    let (inner, outer) = (20f32.to_radians(), 40f32.to_radians());
+    let intensity = 0.8;
+    let mut g = GltfBuilder::new();
+    plane(&mut g);
+    g.punctual_light(
+        "spot",
+        "spot",
+        Vec3::ONE,
+        intensity,
+        spot_pos,
+        spot_pos - Vec3::Y,
+        Some((inner, outer)),
+    );
+    let spot_scene = load(&g, "analytic-spot");
+    let camera = plane_camera();
+    // KHR_lights_punctual's recommended falloff, squared smooth step between the cones.
+    let spot = expected_image(&camera, |x, z| {
+        let d = (spot_pos.as_dvec3() - glam::DVec3::new(x, 0.0, z)).normalize();
+        let r2 = (spot_pos.as_dvec3() - glam::DVec3::new(x, 0.0, z)).length_squared();
+        let cd = d.y; // angle to the spot's axis (straight down)
+        let scale = 1.0 / (inner.cos() as f64 - outer.cos() as f64).max(0.001);
+        let a = (cd * scale - outer.cos() as f64 * scale).clamp(0.0, 1.0);
+        ALBEDO / PI * intensity as f64 * a * a * d.y / r2
+    });
+    let mk = |strategy, light, brdf| {
+        settings(
+            strategy,
+            16,
+            light,
+            brdf,
+            LightSelection::Each,
+            Heuristic::Balance,
+        )
+    };
+    check_cases(
+        "spot",
+        &spot_scene,
+        &[
+            Case {
+                name: "spot-light".into(),
+                settings: mk(Strategy::Light, 1, 0),
+                expected: spot.clone(),
+            },
+            Case {
+                name: "spot-mis".into(),
+                settings: mk(Strategy::Mis, 2, 2),
+                expected: spot,
+            },
+        ],
+    );
+
+    let dir = Vec3::new(0.3, -1.0, 0.2).normalize();
+    let irradiance = 2.0;
+    let mut g = GltfBuilder::new();
+    plane(&mut g);
+    g.punctual_light(
+        "sun",
+        "directional",
+        Vec3::ONE,
+        irradiance,
+        Vec3::ZERO,
+        dir,
+        None,
+    );
+    let sun_scene = load(&g, "analytic-directional");
+    let sun = expected_image(&camera, |_, _| {
+        ALBEDO / PI * irradiance as f64 * (-dir.y) as f64
+    });
+    check_cases(
+        "directional",
+        &sun_scene,
+        &[
+            Case {
+                name: "sun-light".into(),
+                settings: mk(Strategy::Light, 1, 0),
+                expected: sun.clone(),
+            },
+            Case {
+                name: "sun-mis".into(),
+                settings: mk(Strategy::Mis, 3, 3),
+                expected: sun,
+            },
+        ],
+    );
+}
+
+/// A delta light's contribution must not depend on how many light or BRDF samples are taken
+/// (Mitsuba 3 issue #1861: delta emitters that skip the 1/n factor).
+#[test]
+fn delta_light_contribution_is_independent_of_sample_counts() {
+    let mut g = GltfBuilder::new();
+    plane(&mut g);
+    g.punctual_light(
+        "point",
+        "point",
+        Vec3::ONE,
+        1.0,
+        Vec3::new(0.0, 1.0, 0.0),
+        Vec3::ZERO,
+        None,
+    );
+    let scene = upload(&load(&g, "delta-counts"));
+    let camera = plane_camera();
+    let base = render(
+        &scene,
+        &settings(
+            Strategy::Light,
+            2,
+            1,
+            0,
+            LightSelection::Each,
+            Heuristic::Balance,
+        ),
+        &camera,
+    )
+    .mean();
+    for (strategy, light, brdf, sel) in [
+        (Strategy::Light, 7, 0, LightSelection::Each),
+        (Strategy::Light, 5, 0, LightSelection::Power),
+        (Strategy::Mis, 3, 9, LightSelection::Each),
+        (Strategy::Mis, 1, 4, LightSelection::Uniform),
+    ] {
+        let other = render(
+            &scene,
+            &settings(strategy, 2, light, brdf, sel, Heuristic::Power),
+            &camera,
+        )
+        .mean();
+        for (a, b) in base.iter().zip(&other) {
+            // Same camera samples (same seed), so the only difference is rounding in n·x/n.
+            assert!(
+                (a[0] - b[0]).abs() <= 1e-5 * a[0].abs().max(1e-6),
+                "{strategy:?} n={light}+{brdf}: {} vs {}",
+                a[0],
+                b[0]
+            );
+        }
+    }
+}

@@ -1,0 +1,129 @@
+//! Shared helpers of the GPU tests: one renderer per test binary, scenes written and loaded
+//! through the real glTF path, and statistics of rendered regions.
+#![allow(dead_code)]
+
+use std::path::PathBuf;
+use std::sync::OnceLock;
+use veach::assets::gltf_writer::GltfBuilder;
+use veach::render::{GpuScene, RenderOutput};
+use veach::scene::{Camera, Scene};
+use veach::{GpuContext, RenderSettings, Renderer};
+
+/// The renderer on the machine's adapter (lavapipe in CI). Compiled once per test binary.
+pub fn renderer() -> &'static Renderer {
+    static RENDERER: OnceLock<Renderer> = OnceLock::new();
+    RENDERER.get_or_init(|| {
+        let gpu = GpuContext::new(None).unwrap_or_else(|e| panic!("{e}"));
+        eprintln!("adapter: {}", gpu.describe());
+        Renderer::new(gpu).unwrap_or_else(|e| panic!("{e}"))
+    })
+}
+
+/// Where tests leave files to look at (images of a failed comparison, histograms).
+pub fn output_dir(test: &str) -> PathBuf {
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join("veach-tests")
+        .join(test);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+/// Writes the scene as glTF and loads it back, so tests go through the real loader.
+pub fn load(builder: &GltfBuilder, name: &str) -> Scene {
+    let path = output_dir("scenes").join(format!("{name}.gltf"));
+    builder.write(&path).unwrap();
+    veach::load_gltf(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+pub fn shipped_scene(name: &str) -> Scene {
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .join("../../assets")
+        .join(format!("{name}.gltf"));
+    veach::load_gltf(&path).unwrap_or_else(|e| panic!("{e}"))
+}
+
+pub fn render(scene: &GpuScene, settings: &RenderSettings, camera: &Camera) -> RenderOutput {
+    renderer()
+        .render(scene, settings, camera, &mut |_| true)
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
+pub fn upload(scene: &Scene) -> GpuScene {
+    renderer()
+        .upload_scene(scene)
+        .unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// Mean over a pixel rectangle of the per-pixel means, and the variance of that mean
+/// (Σ per-pixel variance of the mean / P²: pixels are independent).
+#[derive(Clone, Copy, Debug)]
+pub struct RegionEstimate {
+    pub mean: [f64; 3],
+    pub var: [f64; 3],
+}
+
+pub fn region(out: &RenderOutput, x0: u32, y0: u32, x1: u32, y1: u32) -> RegionEstimate {
+    let mean = out.mean();
+    let var = out.variance_of_mean();
+    let mut m = [0.0f64; 3];
+    let mut v = [0.0f64; 3];
+    let mut count = 0.0;
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let i = (y * out.width + x) as usize;
+            for c in 0..3 {
+                m[c] += mean[i][c] as f64;
+                v[c] += var[i][c] as f64;
+            }
+            count += 1.0;
+        }
+    }
+    RegionEstimate {
+        mean: m.map(|s| s / count),
+        var: v.map(|s| s / (count * count)),
+    }
+}
+
+/// erfc with fractional error below 1.2e-7 (Numerical Recipes, 2nd ed., §6.2, `erfcc`).
+pub fn erfc(x: f64) -> f64 {
+    let z = x.abs();
+    let t = 1.0 / (1.0 + 0.5 * z);
+    let r = t
+        * (-z * z - 1.26551223
+            + t * (1.00002368
+                + t * (0.37409196
+                    + t * (0.09678418
+                        + t * (-0.18628806
+                            + t * (0.27886807
+                                + t * (-1.13520398
+                                    + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277)))))))))
+            .exp();
+    if x >= 0.0 { r } else { 2.0 - r }
+}
+
+/// Two-sided critical z for `comparisons` tests at family-wise significance `alpha`
+/// (Bonferroni): P(|Z| > z) = alpha / comparisons.
+pub fn bonferroni_z(alpha: f64, comparisons: usize) -> f64 {
+    let target = alpha / comparisons as f64;
+    let (mut lo, mut hi) = (0.0, 40.0);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        // P(|Z| > z) = erfc(z / sqrt 2)
+        if erfc(mid / std::f64::consts::SQRT_2) > target {
+            lo = mid
+        } else {
+            hi = mid
+        }
+    }
+    hi
+}
+
+/// Writes images of a failed comparison next to each other for a person to look at.
+pub fn write_failure_images(test: &str, images: &[(&str, u32, u32, Vec<[f32; 3]>)]) -> PathBuf {
+    let dir = output_dir(test);
+    for (name, w, h, px) in images {
+        veach::image_io::write_image(&dir.join(format!("{name}.exr")), *w, *h, px, 0.0).unwrap();
+        veach::image_io::write_image(&dir.join(format!("{name}.png")), *w, *h, px, 0.0).unwrap();
+    }
+    dir
+}
