@@ -28,9 +28,9 @@ fn max_dim(v: vec3f) -> u32 {
     return select(2u, 1u, v.y > v.z);
 }
 
+// v[i] by selects: dynamic indexing of a vector spills it to memory on some drivers (lavapipe).
 fn component(v: vec3f, i: u32) -> f32 {
-    var w = v;
-    return w[i];
+    return select(select(v.z, v.y, i == 1u), v.x, i == 0u);
 }
 
 // Woop, Benthin & Wald, "Watertight Ray/Triangle Intersection", JCGT 2(1), 2013, §3.

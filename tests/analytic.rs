@@ -7,7 +7,7 @@ mod common;
 use common::*;
 use glam::Vec3;
 use std::f64::consts::PI;
-use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
+use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData, Punctual};
 use veach::scene::Camera;
 use veach::{Heuristic, LightSelection, RenderSettings, Strategy};
 
@@ -199,12 +199,10 @@ fn area_and_point_light_on_a_lambertian_plane_match_the_closed_form() {
     g.add_mesh("area light", &quad, light, glam::Mat4::IDENTITY);
     g.punctual_light(
         "point",
-        "point",
-        Vec3::ONE,
-        intensity,
+        Punctual::Point,
+        Vec3::splat(intensity),
         point,
         Vec3::ZERO,
-        None,
     );
     let scene = load(&g, "analytic-area-point");
     let camera = plane_camera();
@@ -286,12 +284,10 @@ fn spot_and_directional_lights_match_the_closed_form() {
     plane(&mut g);
     g.punctual_light(
         "spot",
-        "spot",
-        Vec3::ONE,
-        intensity,
+        Punctual::Spot { inner, outer },
+        Vec3::splat(intensity),
         spot_pos,
         spot_pos - Vec3::Y,
-        Some((inner, outer)),
     );
     let spot_scene = load(&g, "analytic-spot");
     let camera = plane_camera();
@@ -337,12 +333,10 @@ fn spot_and_directional_lights_match_the_closed_form() {
     plane(&mut g);
     g.punctual_light(
         "sun",
-        "directional",
-        Vec3::ONE,
-        irradiance,
+        Punctual::Directional,
+        Vec3::splat(irradiance),
         Vec3::ZERO,
         dir,
-        None,
     );
     let sun_scene = load(&g, "analytic-directional");
     let sun = expected_image(&camera, |_, _| {
@@ -374,12 +368,10 @@ fn delta_light_contribution_is_independent_of_sample_counts() {
     plane(&mut g);
     g.punctual_light(
         "point",
-        "point",
-        Vec3::ONE,
-        1.0,
+        Punctual::Point,
+        Vec3::splat(1.0),
         Vec3::new(0.0, 1.0, 0.0),
         Vec3::ZERO,
-        None,
     );
     let scene = upload(&load(&g, "delta-counts"));
     let camera = plane_camera();

@@ -3,7 +3,7 @@
 use anyhow::{Context, Result, bail};
 use clap::{Parser, Subcommand, ValueEnum};
 use indicatif::{ProgressBar, ProgressStyle};
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
@@ -133,6 +133,7 @@ struct RenderArgs {
 
 fn main() {
     let cli = Cli::parse();
+    quiet_mesa_runtime_dir_warning();
     let result = match cli.command {
         Command::Render(args) => render(args),
         Command::Info { scene } => info(&scene),
@@ -141,6 +142,26 @@ fn main() {
     if let Err(e) = result {
         eprintln!("error: {e:#}");
         std::process::exit(1);
+    }
+}
+
+/// Mesa's Vulkan drivers print "XDG_RUNTIME_DIR is invalid" when it is unset, which reads like
+/// an error of ours: point it at a private directory of our own.
+fn quiet_mesa_runtime_dir_warning() {
+    if std::env::var_os("XDG_RUNTIME_DIR").is_some() {
+        return;
+    }
+    let dir = std::env::temp_dir().join("veach-xdg-runtime");
+    #[cfg(unix)]
+    let created = {
+        use std::os::unix::fs::DirBuilderExt;
+        std::fs::DirBuilder::new().mode(0o700).create(&dir).is_ok() || dir.is_dir()
+    };
+    #[cfg(not(unix))]
+    let created = false;
+    if created {
+        // SAFETY: called at the start of main, before any other thread exists.
+        unsafe { std::env::set_var("XDG_RUNTIME_DIR", &dir) };
     }
 }
 
@@ -334,7 +355,7 @@ fn render(args: RenderArgs) -> Result<()> {
     Ok(())
 }
 
-fn info(path: &PathBuf) -> Result<()> {
+fn info(path: &Path) -> Result<()> {
     let scene = veach::load_gltf(path)?;
     let b = scene.bounds();
     println!("{}", path.display());
@@ -383,7 +404,7 @@ fn info(path: &PathBuf) -> Result<()> {
     Ok(())
 }
 
-fn generate(name: &str, output: &PathBuf) -> Result<()> {
+fn generate(name: &str, output: &Path) -> Result<()> {
     let builder =
         veach::assets::generate_scene(name).with_context(|| format!("unknown scene '{name}'"))?;
     builder.write(output)?;

@@ -266,7 +266,7 @@ impl Renderer {
         let upload_start = Instant::now();
         let arrays: SceneArrays = build_scene_arrays(scene, &bvh);
         let device = &self.gpu.device;
-        let max_binding = device.limits().max_storage_buffer_binding_size as u64;
+        let max_binding = device.limits().max_storage_buffer_binding_size;
         let too_big = [
             std::mem::size_of_val(arrays.bvh_nodes.as_slice()),
             std::mem::size_of_val(arrays.tri_verts.as_slice()),
@@ -353,7 +353,7 @@ impl Renderer {
         }
         let pixels = w as u64 * h as u64;
         let accum_bytes = pixels * 16;
-        let max_binding = device.limits().max_storage_buffer_binding_size as u64;
+        let max_binding = device.limits().max_storage_buffer_binding_size;
         if accum_bytes > max_binding {
             return Err(Error::Options(format!(
                 "{w}x{h} needs {} MiB per image buffer; this adapter allows {} MiB",

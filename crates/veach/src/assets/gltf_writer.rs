@@ -107,7 +107,7 @@ impl GltfBuilder {
     }
 
     fn push_view(&mut self, bytes: &[u8], target: u32) -> usize {
-        while self.buffer.len() % 4 != 0 {
+        while !self.buffer.len().is_multiple_of(4) {
             self.buffer.push(0);
         }
         let offset = self.buffer.len();
@@ -176,20 +176,25 @@ impl GltfBuilder {
         }));
     }
 
-    /// A KHR_lights_punctual light. `kind` is "point", "spot" or "directional"; spot and
-    /// directional lights shine from `position` towards `target`.
+    /// A KHR_lights_punctual light of colour × intensity `power` (W/sr for point and spot
+    /// lights, W/m² for directional ones). Spot and directional lights shine from `position`
+    /// towards `target`.
     pub fn punctual_light(
         &mut self,
         name: &str,
-        kind: &str,
-        color: Vec3,
-        intensity: f32,
+        kind: Punctual,
+        power: Vec3,
         position: Vec3,
         target: Vec3,
-        cones: Option<(f32, f32)>,
     ) {
-        let mut light = json!({ "name": name, "type": kind, "color": color.to_array(), "intensity": intensity });
-        if let Some((inner, outer)) = cones {
+        let intensity = power.max_element().max(1e-30);
+        let mut light = json!({ "name": name, "color": (power / intensity).to_array(), "intensity": intensity });
+        light["type"] = json!(match kind {
+            Punctual::Point => "point",
+            Punctual::Spot { .. } => "spot",
+            Punctual::Directional => "directional",
+        });
+        if let Punctual::Spot { inner, outer } = kind {
             light["spot"] = json!({ "innerConeAngle": inner, "outerConeAngle": outer });
         }
         self.lights.push(light);
@@ -251,6 +256,14 @@ fn look_rotation(position: Vec3, target: Vec3) -> Quat {
     let right = forward.cross(up_hint).normalize();
     let up = right.cross(forward);
     Quat::from_mat3(&glam::Mat3::from_cols(right, up, -forward))
+}
+
+/// Kinds of KHR_lights_punctual lights; spot cone half-angles in radians.
+#[derive(Clone, Copy, Debug)]
+pub enum Punctual {
+    Point,
+    Spot { inner: f32, outer: f32 },
+    Directional,
 }
 
 /// Triangle mesh data in the form glTF stores it.

@@ -140,8 +140,11 @@ pub struct PixelCounters {
     pub nonfinite: u32,
 }
 
-/// (struct name, size, [(member, offset)]) of every struct above, for the layout test.
-pub fn rust_layouts() -> Vec<(&'static str, usize, Vec<(&'static str, usize)>)> {
+/// Name, size and (member, offset) list of a struct.
+pub type StructLayout = (&'static str, usize, Vec<(&'static str, usize)>);
+
+/// The layout of every struct above, for the layout test.
+pub fn rust_layouts() -> Vec<StructLayout> {
     macro_rules! layout {
         ($t:ident { $($f:ident),* $(,)? }) => {
             (

@@ -12,20 +12,75 @@ pub fn load_gltf(path: &Path) -> Result<Scene> {
     let bytes =
         std::fs::read(path).map_err(|e| Error::scene(path, format!("cannot read file: {e}")))?;
     // The gltf crate validates the JSON, and `check_accessor` the byte ranges we read; should a
-    // malformed file still reach a panic inside the crate, report it as a bad file.
-    match std::panic::catch_unwind(|| load_gltf_bytes(path, &bytes)) {
-        Ok(result) => result,
-        Err(_) => Err(Error::scene(
+    // malformed file still reach a panic inside the crate (its validator indexes unchecked in
+    // places), report it as a bad file, without the panic message.
+    match quiet_catch_unwind(|| load_gltf_bytes(path, &bytes)) {
+        Some(result) => result,
+        None => Err(Error::scene(
             path,
-            "malformed glTF: the reader failed on its data",
+            "malformed glTF: the glTF reader failed on its contents",
         )),
+    }
+}
+
+thread_local! {
+    static QUIET_PANICS: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+}
+
+/// catch_unwind that keeps the panic message off stderr, for this thread only.
+fn quiet_catch_unwind<T>(f: impl FnOnce() -> T + std::panic::UnwindSafe) -> Option<T> {
+    static HOOK: std::sync::Once = std::sync::Once::new();
+    HOOK.call_once(|| {
+        let previous = std::panic::take_hook();
+        std::panic::set_hook(Box::new(move |info| {
+            if !QUIET_PANICS.with(|q| q.get()) {
+                previous(info);
+            }
+        }));
+    });
+    QUIET_PANICS.with(|q| q.set(true));
+    let result = std::panic::catch_unwind(f);
+    QUIET_PANICS.with(|q| q.set(false));
+    result.ok()
+}
+
+/// "meshes[3]..." in a validation message → " (mesh 'name')", read from the raw JSON.
+fn name_the_mesh(bytes: &[u8], message: &str) -> String {
+    let Some(start) = message.find("meshes[") else {
+        return String::new();
+    };
+    let digits: String = message[start + 7..]
+        .chars()
+        .take_while(char::is_ascii_digit)
+        .collect();
+    let Ok(index) = digits.parse::<usize>() else {
+        return String::new();
+    };
+    let json: Option<serde_json::Value> = if bytes.starts_with(b"glTF") {
+        gltf::binary::Glb::from_slice(bytes)
+            .ok()
+            .and_then(|g| serde_json::from_slice(&g.json).ok())
+    } else {
+        serde_json::from_slice(bytes).ok()
+    };
+    match json
+        .as_ref()
+        .and_then(|j| j["meshes"][index]["name"].as_str())
+    {
+        Some(name) => format!(" (mesh '{name}')"),
+        None => String::new(),
     }
 }
 
 fn load_gltf_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
     let err = |m: String| Error::scene(path, m);
-    let gltf =
-        gltf::Gltf::from_slice(bytes).map_err(|e| err(format!("not a valid glTF file: {e}")))?;
+    let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| {
+        let message = e.to_string();
+        err(format!(
+            "not a valid glTF file: {message}{}",
+            name_the_mesh(bytes, &message)
+        ))
+    })?;
     let base = path
         .parent()
         .filter(|p| !p.as_os_str().is_empty())

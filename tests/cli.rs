@@ -1,0 +1,166 @@
+//! The `veach` command as a user runs it: outputs by extension, --stats, errors that name the
+//! file, and an existing output left alone when a render fails.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn veach(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_veach"))
+        .args(args)
+        .output()
+        .expect("run veach")
+}
+
+fn assets(name: &str) -> String {
+    Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../assets")
+        .join(name)
+        .to_str()
+        .unwrap()
+        .to_owned()
+}
+
+fn out_dir() -> PathBuf {
+    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
+        .join("veach-tests")
+        .join("cli");
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+#[test]
+fn renders_exr_png_and_pfm_with_stats() {
+    let dir = out_dir();
+    for ext in ["exr", "png", "pfm"] {
+        let out = dir.join(format!("cornell.{ext}"));
+        let stats = dir.join(format!("cornell-{ext}.json"));
+        let o = veach(&[
+            "render",
+            &assets("cornell-box.gltf"),
+            "-o",
+            out.to_str().unwrap(),
+            "--width",
+            "32",
+            "--height",
+            "24",
+            "--spp",
+            "2",
+            "--light-samples",
+            "2",
+            "--brdf-samples",
+            "2",
+            "--stats",
+            stats.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let (w, h, px) = veach::image_io::read_image(&out).unwrap();
+        assert_eq!((w, h), (32, 24));
+        assert!(px.iter().flatten().all(|v| v.is_finite() && *v >= 0.0));
+        assert!(px.iter().flatten().any(|v| *v > 0.0), "{ext}: black image");
+        let s: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
+        assert_eq!(s["scene"]["triangles"], 36);
+        assert_eq!(s["scene"]["lights"], 1);
+        assert_eq!(s["samples_per_pixel"]["min"], 2);
+        assert!(s["rays"].as_u64().unwrap() > 32 * 24 * 2);
+        assert!(s["rays_per_second"].as_f64().unwrap() > 0.0);
+        for key in ["load", "bvh_build", "pipeline_creation", "render"] {
+            assert!(
+                s["timings_seconds"][key].as_f64().is_some(),
+                "missing timing {key}"
+            );
+        }
+        assert!(s["adapter"].as_str().is_some_and(|a| !a.is_empty()));
+    }
+}
+
+#[test]
+fn a_bad_scene_is_a_clear_error_and_leaves_the_old_output_alone() {
+    let dir = out_dir();
+    let out = dir.join("keep.png");
+    std::fs::write(&out, b"previous image").unwrap();
+    let bad = dir.join("bad.gltf");
+    std::fs::write(&bad, b"{ this is not json").unwrap();
+    let o = veach(&["render", bad.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(1));
+    let e = stderr(&o);
+    assert!(e.contains("bad.gltf") && e.starts_with("error:"), "{e}");
+    assert!(!e.contains("panicked"), "{e}");
+    assert_eq!(std::fs::read(&out).unwrap(), b"previous image");
+
+    let o = veach(&["render", "/no/such/scene.glb", "-o", out.to_str().unwrap()]);
+    assert!(stderr(&o).contains("/no/such/scene.glb"));
+    let o = veach(&[
+        "render",
+        &assets("cornell-box.gltf"),
+        "-o",
+        dir.join("x.jpg").to_str().unwrap(),
+    ]);
+    assert!(
+        !o.status.success() && stderr(&o).contains(".exr"),
+        "{}",
+        stderr(&o)
+    );
+    let o = veach(&[
+        "render",
+        &assets("cornell-box.gltf"),
+        "-o",
+        out.to_str().unwrap(),
+        "--camera",
+        "nope",
+    ]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("'camera'"),
+        "{}",
+        stderr(&o)
+    );
+    let o = veach(&[
+        "render",
+        &assets("cornell-box.gltf"),
+        "-o",
+        out.to_str().unwrap(),
+        "--spp",
+        "0",
+    ]);
+    assert!(
+        !o.status.success() && stderr(&o).contains("--spp"),
+        "{}",
+        stderr(&o)
+    );
+    assert_eq!(std::fs::read(&out).unwrap(), b"previous image");
+}
+
+#[test]
+fn help_explains_the_sample_counts() {
+    let o = veach(&["render", "--help"]);
+    assert!(o.status.success());
+    let text = String::from_utf8_lossy(&o.stdout);
+    for needle in [
+        "--spp",
+        "--light-samples",
+        "--brdf-samples",
+        "--strategy",
+        "--time-limit",
+        "camera samples per pixel",
+    ] {
+        assert!(text.contains(needle), "--help lacks {needle}");
+    }
+}
+
+#[test]
+fn generated_assets_match_the_shipped_files() {
+    let dir = out_dir();
+    for name in ["cornell-box", "veach-mis"] {
+        let out = dir.join(format!("{name}.gltf"));
+        let o = veach(&["generate", name, "-o", out.to_str().unwrap()]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert_eq!(
+            std::fs::read_to_string(&out).unwrap(),
+            std::fs::read_to_string(assets(&format!("{name}.gltf"))).unwrap(),
+            "assets/{name}.gltf is stale: regenerate it with `veach generate {name} -o assets/{name}.gltf`"
+        );
+    }
+}
