@@ -182,31 +182,41 @@ fn estimate_uniform_sampling(c: ShadingContext, rng: ptr<function, u32>, rays: p
     return sum / n;
 }
 
-fn estimate_radiance(ray: Ray, rng: ptr<function, u32>, rays: ptr<function, u32>) -> vec3f {
+// The parts of one camera sample's estimate: emission seen directly, light-sample and
+// direction-sample (BRDF or uniform) contributions, MIS-weighted where the strategy is MIS.
+struct Estimate {
+    emitted: vec3f,
+    light: vec3f,
+    brdf: vec3f,
+}
+
+fn estimate_radiance(ray: Ray, rng: ptr<function, u32>, rays: ptr<function, u32>) -> Estimate {
+    var e = Estimate(vec3f(0.0), vec3f(0.0), vec3f(0.0));
     *rays += 1u;
     let hit = trace_closest(ray.origin, ray.dir, RAY_INF);
     if !hit.found {
-        return vec3f(0.0);
+        return e;
     }
     let s = surface_at(hit, ray.dir);
     let f = frame_from_normal(s.ns);
     let c = ShadingContext(s, f, frame_to_local(f, -ray.dir), bsdf_params(materials[s.material]));
-    var l = emitted_radiance(s);
+    e.emitted = emitted_radiance(s);
     switch frame.strategy {
         case STRATEGY_UNIFORM: {
-            l += estimate_uniform_sampling(c, rng, rays);
+            e.brdf = estimate_uniform_sampling(c, rng, rays);
         }
         case STRATEGY_BRDF: {
-            l += estimate_brdf_sampling(c, false, rng, rays);
+            e.brdf = estimate_brdf_sampling(c, false, rng, rays);
         }
         case STRATEGY_LIGHT: {
-            l += estimate_light_sampling(c, false, rng, rays);
+            e.light = estimate_light_sampling(c, false, rng, rays);
         }
         default: {
-            l += estimate_light_sampling(c, true, rng, rays) + estimate_brdf_sampling(c, true, rng, rays);
+            e.light = estimate_light_sampling(c, true, rng, rays);
+            e.brdf = estimate_brdf_sampling(c, true, rng, rays);
         }
     }
-    return l;
+    return e;
 }
 
 @compute @workgroup_size(8, 8, 1)
@@ -220,16 +230,25 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
     var sum = accum[pixel];
     var sum_sq = accum_sq[pixel];
     var count = counters[pixel];
+    var sum_light = vec3f(0.0);
+    var sum_brdf = vec3f(0.0);
+    if frame.write_aovs != 0u {
+        sum_light = aov_light[pixel].xyz;
+        sum_brdf = aov_brdf[pixel].xyz;
+    }
     for (var k = 0u; k < frame.sample_count; k++) {
         var rng = rng_seed(pixel, frame.sample_start + k, frame.seed);
         let ray = camera_ray(vec2u(x, y), rng_next2(&rng));
         var rays = 0u;
-        let l = estimate_radiance(ray, &rng, &rays);
+        let e = estimate_radiance(ray, &rng, &rays);
+        let l = e.emitted + e.light + e.brdf;
         count.rays += rays;
         // A non-finite sample is counted and dropped (as a zero), never accumulated.
         if is_finite3(l) && is_finite3(l * l) {
             sum += vec4f(l, 1.0);
             sum_sq += vec4f(l * l, 0.0);
+            sum_light += e.light;
+            sum_brdf += e.emitted + e.brdf;
         } else {
             sum.w += 1.0;
             count.nonfinite += 1u;
@@ -238,4 +257,8 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
     accum[pixel] = sum;
     accum_sq[pixel] = sum_sq;
     counters[pixel] = count;
+    if frame.write_aovs != 0u {
+        aov_light[pixel] = vec4f(sum_light, 0.0);
+        aov_brdf[pixel] = vec4f(sum_brdf, 0.0);
+    }
 }

@@ -53,9 +53,10 @@ struct FrameParams {
     heuristic: u32,
     light_selection: u32,
     light_count: u32,
+    // 1: also accumulate the light-sample and BRDF-sample contributions (aov_light, aov_brdf).
+    write_aovs: u32,
     _pad0: u32,
     _pad1: u32,
-    _pad2: u32,
 }
 
 // BVH2 node, 32 bytes. Inner node (count == 0): children at nodes[first] and nodes[first + 1].
@@ -130,6 +131,19 @@ struct EmitterTriangle {
     light: u32,
 }
 
+// Parameters of the test kernels (shaders/test_kernels.wgsl).
+struct TestParams {
+    routine: u32,
+    count: u32,
+    seed: u32,
+    light_index: u32,
+    wo: vec3f,
+    _pad0: f32,
+    point: vec3f,
+    _pad1: f32,
+    material: Material,
+}
+
 // Per-pixel counters kept by the kernel.
 struct PixelCounters {
     rays: u32,
@@ -150,3 +164,7 @@ struct PixelCounters {
 @group(0) @binding(8) var<storage, read_write> accum: array<vec4f>;
 @group(0) @binding(9) var<storage, read_write> accum_sq: array<vec4f>;
 @group(0) @binding(10) var<storage, read_write> counters: array<PixelCounters>;
+// Contribution images: sums of the (MIS-weighted) light-sample and BRDF-sample estimates, so
+// that aov_light + aov_brdf = accum. Directly seen emission counts with the BRDF image.
+@group(0) @binding(11) var<storage, read_write> aov_light: array<vec4f>;
+@group(0) @binding(12) var<storage, read_write> aov_brdf: array<vec4f>;

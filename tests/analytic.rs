@@ -27,31 +27,19 @@ fn corner_form_factor(a: f64, b: f64, h: f64) -> f64 {
 /// Form factor from a point (px, pz) on the plane y = 0 to the rectangle [x0,x1]×[z0,z1] at
 /// height h facing down, by inclusion-exclusion over the four corner rectangles.
 fn rect_form_factor(px: f64, pz: f64, x0: f64, x1: f64, z0: f64, z1: f64, h: f64) -> f64 {
-    let f =
-        |dx: f64, dz: f64| dx.signum() * dz.signum() * corner_form_factor(dx.abs(), dz.abs(), h);
+    let f = |dx: f64, dz: f64| dx.signum() * dz.signum() * corner_form_factor(dx.abs(), dz.abs(), h);
     f(x1 - px, z1 - pz) - f(x0 - px, z1 - pz) - f(x1 - px, z0 - pz) + f(x0 - px, z0 - pz)
 }
 
 fn plane_camera() -> Camera {
-    Camera::look_at(
-        "down",
-        Vec3::new(0.0, 0.5, 0.0),
-        Vec3::ZERO,
-        Vec3::Z,
-        60f32.to_radians(),
-    )
+    Camera::look_at("down", Vec3::new(0.0, 0.5, 0.0), Vec3::ZERO, Vec3::Z, 60f32.to_radians())
 }
 
 /// Average of `radiance(point on the plane)` over each pixel (8×8 sub-pixel grid, matching the
 /// renderer's box filter), following the camera model of `shaders/camera.wgsl`.
 fn expected_image(camera: &Camera, radiance: impl Fn(f64, f64) -> f64) -> Vec<f64> {
     let g = camera.to_gpu(SIZE, SIZE);
-    let (o, f, r, u) = (
-        Vec3::from(g.origin),
-        Vec3::from(g.forward),
-        Vec3::from(g.right),
-        Vec3::from(g.up),
-    );
+    let (o, f, r, u) = (Vec3::from(g.origin), Vec3::from(g.forward), Vec3::from(g.right), Vec3::from(g.up));
     let mut out = Vec::new();
     for py in 0..SIZE {
         for px in 0..SIZE {
@@ -75,13 +63,8 @@ fn expected_image(camera: &Camera, radiance: impl Fn(f64, f64) -> f64) -> Vec<f6
 fn plane(g: &mut GltfBuilder) {
     let m = g.material(&MaterialDesc::lambert("plane", Vec3::splat(ALBEDO as f32)));
     let s = 20.0;
-    let quad = MeshData::quad(
-        Vec3::new(-s, 0., -s),
-        Vec3::new(s, 0., -s),
-        Vec3::new(s, 0., s),
-        Vec3::new(-s, 0., s),
-        Vec3::Y,
-    );
+    let quad =
+        MeshData::quad(Vec3::new(-s, 0., -s), Vec3::new(s, 0., -s), Vec3::new(s, 0., s), Vec3::new(-s, 0., s), Vec3::Y);
     g.add_mesh("plane", &quad, m, glam::Mat4::IDENTITY);
 }
 
@@ -102,20 +85,10 @@ fn check_cases(test: &str, scene: &veach::Scene, cases: &[Case]) {
     let mut failures = Vec::new();
     for case in cases {
         let out = render(&gpu_scene, &case.settings, &camera);
-        assert_eq!(
-            out.nonfinite_samples, 0,
-            "{}: non-finite samples",
-            case.name
-        );
+        assert_eq!(out.nonfinite_samples, 0, "{}: non-finite samples", case.name);
         for by in 0..SIZE / BLOCK {
             for bx in 0..SIZE / BLOCK {
-                let est = region(
-                    &out,
-                    bx * BLOCK,
-                    by * BLOCK,
-                    (bx + 1) * BLOCK,
-                    (by + 1) * BLOCK,
-                );
+                let est = region(&out, bx * BLOCK, by * BLOCK, (bx + 1) * BLOCK, (by + 1) * BLOCK);
                 let mut expected = 0.0;
                 for y in by * BLOCK..(by + 1) * BLOCK {
                     for x in bx * BLOCK..(bx + 1) * BLOCK {
@@ -150,12 +123,7 @@ fn check_cases(test: &str, scene: &veach::Scene, cases: &[Case]) {
             eprintln!("images written to {}", dir.display());
         }
     }
-    assert!(
-        failures.is_empty(),
-        "{} region(s) off:\n{}",
-        failures.len(),
-        failures.join("\n")
-    );
+    assert!(failures.is_empty(), "{} region(s) off:\n{}", failures.len(), failures.join("\n"));
 }
 
 fn settings(
@@ -197,20 +165,12 @@ fn area_and_point_light_on_a_lambertian_plane_match_the_closed_form() {
         -Vec3::Y,
     );
     g.add_mesh("area light", &quad, light, glam::Mat4::IDENTITY);
-    g.punctual_light(
-        "point",
-        Punctual::Point,
-        Vec3::splat(intensity),
-        point,
-        Vec3::ZERO,
-    );
+    g.punctual_light("point", Punctual::Point, Vec3::splat(intensity), point, Vec3::ZERO);
     let scene = load(&g, "analytic-area-point");
     let camera = plane_camera();
 
     // Lambert: L_o = ρ/π E; area light E = π L_e F; point light E = I cos θ / r².
-    let area = expected_image(&camera, |x, z| {
-        ALBEDO * le * rect_form_factor(x, z, x0, x1, z0, z1, h)
-    });
+    let area = expected_image(&camera, |x, z| ALBEDO * le * rect_form_factor(x, z, x0, x1, z0, z1, h));
     let point_part = expected_image(&camera, |x, z| {
         let d = Vec3::new(point.x - x as f32, point.y, point.z - z as f32).as_dvec3();
         let r2 = d.length_squared();
@@ -223,55 +183,17 @@ fn area_and_point_light_on_a_lambertian_plane_match_the_closed_form() {
     let by_power = LightSelection::Power;
     let cases = [
         // Uniform and BRDF sampling cannot reach the point light: they must see the area light alone.
-        (
-            "uniform",
-            settings(Strategy::Uniform, 32, 0, 256, Each, balance),
-            &area,
-        ),
-        (
-            "brdf",
-            settings(Strategy::Brdf, 32, 0, 64, Each, balance),
-            &area,
-        ),
-        (
-            "light-each",
-            settings(Strategy::Light, 32, 16, 0, Each, balance),
-            &both,
-        ),
-        (
-            "light-uniform",
-            settings(Strategy::Light, 32, 16, 0, Uniform, balance),
-            &both,
-        ),
-        (
-            "light-power",
-            settings(Strategy::Light, 32, 16, 0, by_power, balance),
-            &both,
-        ),
-        (
-            "mis-balance",
-            settings(Strategy::Mis, 32, 8, 8, Each, balance),
-            &both,
-        ),
-        (
-            "mis-power",
-            settings(Strategy::Mis, 32, 8, 8, by_power, power),
-            &both,
-        ),
-        (
-            "mis-brdf-only",
-            settings(Strategy::Mis, 32, 0, 16, Each, balance),
-            &area,
-        ),
+        ("uniform", settings(Strategy::Uniform, 32, 0, 256, Each, balance), &area),
+        ("brdf", settings(Strategy::Brdf, 32, 0, 64, Each, balance), &area),
+        ("light-each", settings(Strategy::Light, 32, 16, 0, Each, balance), &both),
+        ("light-uniform", settings(Strategy::Light, 32, 16, 0, Uniform, balance), &both),
+        ("light-power", settings(Strategy::Light, 32, 16, 0, by_power, balance), &both),
+        ("mis-balance", settings(Strategy::Mis, 32, 8, 8, Each, balance), &both),
+        ("mis-power", settings(Strategy::Mis, 32, 8, 8, by_power, power), &both),
+        ("mis-brdf-only", settings(Strategy::Mis, 32, 0, 16, Each, balance), &area),
     ];
-    let cases: Vec<Case> = cases
-        .into_iter()
-        .map(|(n, s, e)| Case {
-            name: n.into(),
-            settings: s,
-            expected: e.clone(),
-        })
-        .collect();
+    let cases: Vec<Case> =
+        cases.into_iter().map(|(n, s, e)| Case { name: n.into(), settings: s, expected: e.clone() }).collect();
     check_cases("area-and-point", &scene, &cases);
 }
 
@@ -282,13 +204,7 @@ fn spot_and_directional_lights_match_the_closed_form() {
     let intensity = 0.8;
     let mut g = GltfBuilder::new();
     plane(&mut g);
-    g.punctual_light(
-        "spot",
-        Punctual::Spot { inner, outer },
-        Vec3::splat(intensity),
-        spot_pos,
-        spot_pos - Vec3::Y,
-    );
+    g.punctual_light("spot", Punctual::Spot { inner, outer }, Vec3::splat(intensity), spot_pos, spot_pos - Vec3::Y);
     let spot_scene = load(&g, "analytic-spot");
     let camera = plane_camera();
     // KHR_lights_punctual's recommended falloff, squared smooth step between the cones.
@@ -300,30 +216,13 @@ fn spot_and_directional_lights_match_the_closed_form() {
         let a = (cd * scale - outer.cos() as f64 * scale).clamp(0.0, 1.0);
         ALBEDO / PI * intensity as f64 * a * a * d.y / r2
     });
-    let mk = |strategy, light, brdf| {
-        settings(
-            strategy,
-            16,
-            light,
-            brdf,
-            LightSelection::Each,
-            Heuristic::Balance,
-        )
-    };
+    let mk = |strategy, light, brdf| settings(strategy, 16, light, brdf, LightSelection::Each, Heuristic::Balance);
     check_cases(
         "spot",
         &spot_scene,
         &[
-            Case {
-                name: "spot-light".into(),
-                settings: mk(Strategy::Light, 1, 0),
-                expected: spot.clone(),
-            },
-            Case {
-                name: "spot-mis".into(),
-                settings: mk(Strategy::Mis, 2, 2),
-                expected: spot,
-            },
+            Case { name: "spot-light".into(), settings: mk(Strategy::Light, 1, 0), expected: spot.clone() },
+            Case { name: "spot-mis".into(), settings: mk(Strategy::Mis, 2, 2), expected: spot },
         ],
     );
 
@@ -331,31 +230,15 @@ fn spot_and_directional_lights_match_the_closed_form() {
     let irradiance = 2.0;
     let mut g = GltfBuilder::new();
     plane(&mut g);
-    g.punctual_light(
-        "sun",
-        Punctual::Directional,
-        Vec3::splat(irradiance),
-        Vec3::ZERO,
-        dir,
-    );
+    g.punctual_light("sun", Punctual::Directional, Vec3::splat(irradiance), Vec3::ZERO, dir);
     let sun_scene = load(&g, "analytic-directional");
-    let sun = expected_image(&camera, |_, _| {
-        ALBEDO / PI * irradiance as f64 * (-dir.y) as f64
-    });
+    let sun = expected_image(&camera, |_, _| ALBEDO / PI * irradiance as f64 * (-dir.y) as f64);
     check_cases(
         "directional",
         &sun_scene,
         &[
-            Case {
-                name: "sun-light".into(),
-                settings: mk(Strategy::Light, 1, 0),
-                expected: sun.clone(),
-            },
-            Case {
-                name: "sun-mis".into(),
-                settings: mk(Strategy::Mis, 3, 3),
-                expected: sun,
-            },
+            Case { name: "sun-light".into(), settings: mk(Strategy::Light, 1, 0), expected: sun.clone() },
+            Case { name: "sun-mis".into(), settings: mk(Strategy::Mis, 3, 3), expected: sun },
         ],
     );
 }
@@ -366,40 +249,18 @@ fn spot_and_directional_lights_match_the_closed_form() {
 fn delta_light_contribution_is_independent_of_sample_counts() {
     let mut g = GltfBuilder::new();
     plane(&mut g);
-    g.punctual_light(
-        "point",
-        Punctual::Point,
-        Vec3::splat(1.0),
-        Vec3::new(0.0, 1.0, 0.0),
-        Vec3::ZERO,
-    );
+    g.punctual_light("point", Punctual::Point, Vec3::splat(1.0), Vec3::new(0.0, 1.0, 0.0), Vec3::ZERO);
     let scene = upload(&load(&g, "delta-counts"));
     let camera = plane_camera();
-    let base = render(
-        &scene,
-        &settings(
-            Strategy::Light,
-            2,
-            1,
-            0,
-            LightSelection::Each,
-            Heuristic::Balance,
-        ),
-        &camera,
-    )
-    .mean();
+    let base =
+        render(&scene, &settings(Strategy::Light, 2, 1, 0, LightSelection::Each, Heuristic::Balance), &camera).mean();
     for (strategy, light, brdf, sel) in [
         (Strategy::Light, 7, 0, LightSelection::Each),
         (Strategy::Light, 5, 0, LightSelection::Power),
         (Strategy::Mis, 3, 9, LightSelection::Each),
         (Strategy::Mis, 1, 4, LightSelection::Uniform),
     ] {
-        let other = render(
-            &scene,
-            &settings(strategy, 2, light, brdf, sel, Heuristic::Power),
-            &camera,
-        )
-        .mean();
+        let other = render(&scene, &settings(strategy, 2, light, brdf, sel, Heuristic::Power), &camera).mean();
         for (a, b) in base.iter().zip(&other) {
             // Same camera samples (same seed), so the only difference is rounding in n·x/n.
             assert!(

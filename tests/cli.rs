@@ -5,25 +5,15 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
 fn veach(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_veach"))
-        .args(args)
-        .output()
-        .expect("run veach")
+    Command::new(env!("CARGO_BIN_EXE_veach")).args(args).output().expect("run veach")
 }
 
 fn assets(name: &str) -> String {
-    Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../assets")
-        .join(name)
-        .to_str()
-        .unwrap()
-        .to_owned()
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets").join(name).to_str().unwrap().to_owned()
 }
 
 fn out_dir() -> PathBuf {
-    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
-        .join("veach-tests")
-        .join("cli");
+    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("veach-tests").join("cli");
     std::fs::create_dir_all(&d).unwrap();
     d
 }
@@ -68,10 +58,7 @@ fn renders_exr_png_and_pfm_with_stats() {
         assert!(s["rays"].as_u64().unwrap() > 32 * 24 * 2);
         assert!(s["rays_per_second"].as_f64().unwrap() > 0.0);
         for key in ["load", "bvh_build", "pipeline_creation", "render"] {
-            assert!(
-                s["timings_seconds"][key].as_f64().is_some(),
-                "missing timing {key}"
-            );
+            assert!(s["timings_seconds"][key].as_f64().is_some(), "missing timing {key}");
         }
         assert!(s["adapter"].as_str().is_some_and(|a| !a.is_empty()));
     }
@@ -93,43 +80,12 @@ fn a_bad_scene_is_a_clear_error_and_leaves_the_old_output_alone() {
 
     let o = veach(&["render", "/no/such/scene.glb", "-o", out.to_str().unwrap()]);
     assert!(stderr(&o).contains("/no/such/scene.glb"));
-    let o = veach(&[
-        "render",
-        &assets("cornell-box.gltf"),
-        "-o",
-        dir.join("x.jpg").to_str().unwrap(),
-    ]);
-    assert!(
-        !o.status.success() && stderr(&o).contains(".exr"),
-        "{}",
-        stderr(&o)
-    );
-    let o = veach(&[
-        "render",
-        &assets("cornell-box.gltf"),
-        "-o",
-        out.to_str().unwrap(),
-        "--camera",
-        "nope",
-    ]);
-    assert!(
-        !o.status.success() && stderr(&o).contains("'camera'"),
-        "{}",
-        stderr(&o)
-    );
-    let o = veach(&[
-        "render",
-        &assets("cornell-box.gltf"),
-        "-o",
-        out.to_str().unwrap(),
-        "--spp",
-        "0",
-    ]);
-    assert!(
-        !o.status.success() && stderr(&o).contains("--spp"),
-        "{}",
-        stderr(&o)
-    );
+    let o = veach(&["render", &assets("cornell-box.gltf"), "-o", dir.join("x.jpg").to_str().unwrap()]);
+    assert!(!o.status.success() && stderr(&o).contains(".exr"), "{}", stderr(&o));
+    let o = veach(&["render", &assets("cornell-box.gltf"), "-o", out.to_str().unwrap(), "--camera", "nope"]);
+    assert!(!o.status.success() && stderr(&o).contains("'camera'"), "{}", stderr(&o));
+    let o = veach(&["render", &assets("cornell-box.gltf"), "-o", out.to_str().unwrap(), "--spp", "0"]);
+    assert!(!o.status.success() && stderr(&o).contains("--spp"), "{}", stderr(&o));
     assert_eq!(std::fs::read(&out).unwrap(), b"previous image");
 }
 
@@ -138,14 +94,9 @@ fn help_explains_the_sample_counts() {
     let o = veach(&["render", "--help"]);
     assert!(o.status.success());
     let text = String::from_utf8_lossy(&o.stdout);
-    for needle in [
-        "--spp",
-        "--light-samples",
-        "--brdf-samples",
-        "--strategy",
-        "--time-limit",
-        "camera samples per pixel",
-    ] {
+    for needle in
+        ["--spp", "--light-samples", "--brdf-samples", "--strategy", "--time-limit", "camera samples per pixel"]
+    {
         assert!(text.contains(needle), "--help lacks {needle}");
     }
 }

@@ -12,16 +12,7 @@ use veach::{RenderSettings, Strategy};
 
 fn small(strategy: Strategy, seed: u32) -> RenderSettings {
     let (light_samples, brdf_samples) = (2, 2);
-    RenderSettings {
-        width: 24,
-        height: 16,
-        spp: 3,
-        strategy,
-        light_samples,
-        brdf_samples,
-        seed,
-        ..Default::default()
-    }
+    RenderSettings { width: 24, height: 16, spp: 3, strategy, light_samples, brdf_samples, seed, ..Default::default() }
 }
 
 #[test]
@@ -33,17 +24,9 @@ fn same_seed_gives_the_same_image_whatever_the_dispatch_split() {
     let b = render(&gpu_scene, &small(Strategy::Mis, 5), &camera);
     assert_eq!(a.sum, b.sum, "same seed, different image");
     // Tiny dispatches split the image into bands of rows and one sample at a time.
-    let tiny = RenderSettings {
-        dispatch_target: Duration::from_nanos(1),
-        ..small(Strategy::Mis, 5)
-    };
+    let tiny = RenderSettings { dispatch_target: Duration::from_nanos(1), ..small(Strategy::Mis, 5) };
     let c = render(&gpu_scene, &tiny, &camera);
-    assert!(
-        c.dispatches > a.dispatches,
-        "expected more dispatches: {} vs {}",
-        c.dispatches,
-        a.dispatches
-    );
+    assert!(c.dispatches > a.dispatches, "expected more dispatches: {} vs {}", c.dispatches, a.dispatches);
     assert_eq!(a.sum, c.sum, "the image depends on the dispatch split");
     let d = render(&gpu_scene, &small(Strategy::Mis, 6), &camera);
     assert_ne!(a.sum, d.sum, "a different seed gave the same image");
@@ -63,16 +46,8 @@ fn time_limit_stops_the_render_and_reports_the_samples_reached() {
         ..small(Strategy::Light, 1)
     };
     let out = render(&gpu_scene, &settings, &camera);
-    assert!(
-        out.render_time >= Duration::from_millis(300),
-        "{:?}",
-        out.render_time
-    );
-    assert!(
-        out.render_time < Duration::from_secs(3),
-        "{:?}",
-        out.render_time
-    );
+    assert!(out.render_time >= Duration::from_millis(300), "{:?}", out.render_time);
+    assert!(out.render_time < Duration::from_secs(3), "{:?}", out.render_time);
     assert!(out.min_samples() >= 1 && out.mean_samples() < u32::MAX as f64);
 }
 
@@ -81,11 +56,7 @@ fn stopping_early_keeps_what_was_accumulated() {
     let scene = shipped_scene("cornell-box");
     let camera = scene.camera(None).unwrap();
     let gpu_scene = upload(&scene);
-    let settings = RenderSettings {
-        spp: 1000,
-        dispatch_target: Duration::from_nanos(1),
-        ..small(Strategy::Light, 1)
-    };
+    let settings = RenderSettings { spp: 1000, dispatch_target: Duration::from_nanos(1), ..small(Strategy::Light, 1) };
     let mut calls = 0;
     let out = renderer()
         .render(&gpu_scene, &settings, &camera, &mut |_| {
@@ -103,10 +74,7 @@ fn stopping_early_keeps_what_was_accumulated() {
 fn emitters_are_one_sided_unless_double_sided() {
     for double_sided in [false, true] {
         let mut g = GltfBuilder::new();
-        let m = g.material(&MaterialDesc {
-            double_sided,
-            ..MaterialDesc::emitter("light", Vec3::new(3.0, 2.0, 1.0))
-        });
+        let m = g.material(&MaterialDesc { double_sided, ..MaterialDesc::emitter("light", Vec3::new(3.0, 2.0, 1.0)) });
         // Front face looks towards +Z.
         let quad = MeshData::quad(
             Vec3::new(-1., -1., 0.),
@@ -124,10 +92,7 @@ fn emitters_are_one_sided_unless_double_sided() {
             let visible = side == "front" || double_sided;
             for p in out.mean() {
                 let expected = if visible { [3.0, 2.0, 1.0] } else { [0.0; 3] };
-                assert_eq!(
-                    p, expected,
-                    "double_sided={double_sided}, seen from the {side}"
-                );
+                assert_eq!(p, expected, "double_sided={double_sided}, seen from the {side}");
             }
         }
     }
@@ -137,12 +102,7 @@ fn emitters_are_one_sided_unless_double_sided() {
 fn empty_and_unlit_scenes_render_black() {
     let empty = upload(&veach::Scene::default());
     let camera = Camera::look_at("c", Vec3::Z, Vec3::ZERO, Vec3::Y, 1.0);
-    for strategy in [
-        Strategy::Uniform,
-        Strategy::Brdf,
-        Strategy::Light,
-        Strategy::Mis,
-    ] {
+    for strategy in [Strategy::Uniform, Strategy::Brdf, Strategy::Light, Strategy::Mis] {
         let out = render(&empty, &small(strategy, 1), &camera);
         assert!(out.mean().iter().all(|p| *p == [0.0; 3]), "{strategy:?}");
         assert_eq!(out.nonfinite_samples, 0);
@@ -152,12 +112,7 @@ fn empty_and_unlit_scenes_render_black() {
     g.add_mesh(
         "box",
         &MeshData::prism(
-            [
-                Vec3::new(-1., 0., -1.),
-                Vec3::new(1., 0., -1.),
-                Vec3::new(1., 0., 1.),
-                Vec3::new(-1., 0., 1.),
-            ],
+            [Vec3::new(-1., 0., -1.), Vec3::new(1., 0., -1.), Vec3::new(1., 0., 1.), Vec3::new(-1., 0., 1.)],
             1.0,
         ),
         m,
@@ -165,12 +120,7 @@ fn empty_and_unlit_scenes_render_black() {
     );
     let unlit = upload(&load(&g, "unlit"));
     let camera = Camera::look_at("c", Vec3::new(0.0, 2.0, 4.0), Vec3::ZERO, Vec3::Y, 1.0);
-    for strategy in [
-        Strategy::Uniform,
-        Strategy::Brdf,
-        Strategy::Light,
-        Strategy::Mis,
-    ] {
+    for strategy in [Strategy::Uniform, Strategy::Brdf, Strategy::Light, Strategy::Mis] {
         let out = render(&unlit, &small(strategy, 1), &camera);
         assert!(out.mean().iter().all(|p| *p == [0.0; 3]), "{strategy:?}");
     }

@@ -8,9 +8,7 @@ use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData, Punctual};
 use veach::scene::LightKind;
 
 fn dir() -> PathBuf {
-    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
-        .join("veach-tests")
-        .join("scene-input");
+    let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("veach-tests").join("scene-input");
     std::fs::create_dir_all(&d).unwrap();
     d
 }
@@ -25,11 +23,7 @@ fn write_json(name: &str, v: &serde_json::Value) -> PathBuf {
 fn triangle_json() -> serde_json::Value {
     let mut g = GltfBuilder::new();
     let m = g.material(&MaterialDesc::lambert("grey", Vec3::splat(0.5)));
-    let tri = MeshData {
-        positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
-        normals: None,
-        indices: vec![0, 1, 2],
-    };
+    let tri = MeshData { positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], normals: None, indices: vec![0, 1, 2] };
     g.add_mesh("tri", &tri, m, glam::Mat4::IDENTITY);
     g.to_json()
 }
@@ -44,72 +38,35 @@ fn load_err(path: &Path) -> String {
 #[test]
 fn a_valid_file_loads_with_transforms_materials_and_lights() {
     let mut g = GltfBuilder::new();
-    let light = g.material(&MaterialDesc {
-        double_sided: true,
-        ..MaterialDesc::emitter("lamp", Vec3::new(2.0, 4.0, 8.0))
-    });
-    let tri = MeshData {
-        positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
-        normals: None,
-        indices: vec![0, 1, 2],
-    };
+    let light =
+        g.material(&MaterialDesc { double_sided: true, ..MaterialDesc::emitter("lamp", Vec3::new(2.0, 4.0, 8.0)) });
+    let tri = MeshData { positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], normals: None, indices: vec![0, 1, 2] };
     g.add_mesh(
         "lamp",
         &tri,
         light,
-        glam::Mat4::from_translation(Vec3::new(0.0, 0.0, 3.0))
-            * glam::Mat4::from_scale(Vec3::splat(2.0)),
+        glam::Mat4::from_translation(Vec3::new(0.0, 0.0, 3.0)) * glam::Mat4::from_scale(Vec3::splat(2.0)),
     );
-    g.punctual_light(
-        "spot",
-        Punctual::Spot {
-            inner: 0.1,
-            outer: 0.4,
-        },
-        Vec3::splat(5.0),
-        Vec3::Y,
-        Vec3::ZERO,
-    );
+    g.punctual_light("spot", Punctual::Spot { inner: 0.1, outer: 0.4 }, Vec3::splat(5.0), Vec3::Y, Vec3::ZERO);
     g.camera("cam", Vec3::new(0.0, 0.0, 10.0), Vec3::ZERO, 30.0);
     let p = dir().join("valid.gltf");
     g.write(&p).unwrap();
     let scene = veach::load_gltf(&p).unwrap();
     assert_eq!(scene.triangles.len(), 1);
     let t = &scene.triangles[0];
-    assert_eq!(
-        t.p,
-        [
-            Vec3::new(0., 0., 3.),
-            Vec3::new(2., 0., 3.),
-            Vec3::new(0., 2., 3.)
-        ]
-    );
+    assert_eq!(t.p, [Vec3::new(0., 0., 3.), Vec3::new(2., 0., 3.), Vec3::new(0., 2., 3.)]);
     let m = &scene.materials[t.material as usize];
-    assert!(
-        (m.emission - Vec3::new(2.0, 4.0, 8.0)).length() < 1e-5,
-        "emission × strength: {:?}",
-        m.emission
-    );
+    assert!((m.emission - Vec3::new(2.0, 4.0, 8.0)).length() < 1e-5, "emission × strength: {:?}", m.emission);
     assert!(m.double_sided);
     assert_eq!(scene.lights.len(), 2);
     assert!(
         matches!(scene.lights[0].kind, LightKind::Area { ref triangles, double_sided: true, .. } if triangles == &[0])
     );
-    let LightKind::Spot {
-        position,
-        direction,
-        intensity,
-        inner_cone,
-        outer_cone,
-    } = scene.lights[1].kind
-    else {
+    let LightKind::Spot { position, direction, intensity, inner_cone, outer_cone } = scene.lights[1].kind else {
         panic!("expected a spot light")
     };
     assert!((position - Vec3::Y).length() < 1e-6 && (direction + Vec3::Y).length() < 1e-5);
-    assert_eq!(
-        (intensity, inner_cone, outer_cone),
-        (Vec3::splat(5.0), 0.1, 0.4)
-    );
+    assert_eq!((intensity, inner_cone, outer_cone), (Vec3::splat(5.0), 0.1, 0.4));
     let cam = scene.camera(Some("cam")).unwrap();
     assert!((cam.forward + Vec3::Z).length() < 1e-5 && (cam.yfov.to_degrees() - 30.0).abs() < 1e-4);
     assert!(scene.camera(Some("nope")).unwrap_err().contains("'cam'"));
@@ -118,9 +75,7 @@ fn a_valid_file_loads_with_transforms_materials_and_lights() {
 #[test]
 fn mirroring_transforms_keep_the_front_face() {
     let mut v = triangle_json();
-    v["nodes"][0]["matrix"] = json!([
-        -1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0
-    ]);
+    v["nodes"][0]["matrix"] = json!([-1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0]);
     let scene = veach::load_gltf(&write_json("mirrored.gltf", &v)).unwrap();
     // The triangle faced +Z; mirrored in x it still faces +Z.
     assert!((scene.triangles[0].geometric_normal() - Vec3::Z).length() < 1e-6);
@@ -142,10 +97,7 @@ fn non_triangle_modes_are_an_error_naming_the_mesh() {
     let mut v = triangle_json();
     v["meshes"][0]["primitives"][0]["mode"] = json!(1); // LINES
     let e = load_err(&write_json("lines.gltf", &v));
-    assert!(
-        e.contains("lines.gltf") && e.contains("mesh 'tri'") && e.contains("Lines"),
-        "{e}"
-    );
+    assert!(e.contains("lines.gltf") && e.contains("mesh 'tri'") && e.contains("Lines"), "{e}");
 }
 
 #[test]
@@ -155,10 +107,7 @@ fn triangle_strips_and_fans_are_triangulated() {
         v["meshes"][0]["primitives"][0]["mode"] = json!(mode);
         let scene = veach::load_gltf(&write_json(&format!("{name}.gltf"), &v)).unwrap();
         assert_eq!(scene.triangles.len(), 1, "{name}");
-        assert!(
-            (scene.triangles[0].geometric_normal() - Vec3::Z).length() < 1e-6,
-            "{name} winding"
-        );
+        assert!((scene.triangles[0].geometric_normal() - Vec3::Z).length() < 1e-6, "{name} winding");
     }
 }
 
@@ -174,19 +123,12 @@ fn missing_positions_are_an_error_naming_the_mesh() {
 fn out_of_range_indices_are_an_error_naming_the_mesh() {
     let mut g = GltfBuilder::new();
     let m = g.material(&MaterialDesc::lambert("grey", Vec3::splat(0.5)));
-    let tri = MeshData {
-        positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
-        normals: None,
-        indices: vec![0, 1, 7],
-    };
+    let tri = MeshData { positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], normals: None, indices: vec![0, 1, 7] };
     g.add_mesh("broken", &tri, m, glam::Mat4::IDENTITY);
     let p = dir().join("bad-index.gltf");
     g.write(&p).unwrap();
     let e = load_err(&p);
-    assert!(
-        e.contains("mesh 'broken'") && e.contains("index 7") && e.contains("3 vertices"),
-        "{e}"
-    );
+    assert!(e.contains("mesh 'broken'") && e.contains("index 7") && e.contains("3 vertices"), "{e}");
 }
 
 #[test]
@@ -194,19 +136,13 @@ fn accessors_past_the_end_of_their_buffer_are_an_error() {
     let mut v = triangle_json();
     v["accessors"][0]["count"] = json!(1000);
     let e = load_err(&write_json("long-accessor.gltf", &v));
-    assert!(
-        e.contains("long-accessor.gltf") && e.contains("POSITION"),
-        "{e}"
-    );
+    assert!(e.contains("long-accessor.gltf") && e.contains("POSITION"), "{e}");
 }
 
 #[test]
 fn unreadable_files_are_errors_naming_the_file() {
     let e = load_err(Path::new("/nonexistent/scene.gltf"));
-    assert!(
-        e.contains("/nonexistent/scene.gltf") && e.contains("cannot read"),
-        "{e}"
-    );
+    assert!(e.contains("/nonexistent/scene.gltf") && e.contains("cannot read"), "{e}");
     let p = dir().join("garbage.glb");
     std::fs::write(&p, b"glTF\x02\x00\x00\x00garbage").unwrap();
     assert!(load_err(&p).contains("garbage.glb"));
@@ -215,18 +151,14 @@ fn unreadable_files_are_errors_naming_the_file() {
     v["buffers"][0]["uri"] = json!("does-not-exist.bin");
     std::fs::write(&p, serde_json::to_vec(&v).unwrap()).unwrap();
     let e = load_err(&p);
-    assert!(
-        e.contains("missing-buffer.gltf") && e.contains("buffer"),
-        "{e}"
-    );
+    assert!(e.contains("missing-buffer.gltf") && e.contains("buffer"), "{e}");
 }
 
 /// Every file of the Khronos glTF-Validator corpus (many invalid on purpose) must load or fail
 /// with an error: no panic, no hang.
 #[test]
 fn the_gltf_validator_corpus_never_panics() {
-    let root =
-        PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/testdata/gltf-validator");
+    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/testdata/gltf-validator");
     if !root.exists() {
         eprintln!("skipped: {} is absent", root.display());
         return;
@@ -243,11 +175,7 @@ fn the_gltf_validator_corpus_never_panics() {
             }
         }
     }
-    assert!(
-        files.len() > 100,
-        "corpus looks incomplete: {} files",
-        files.len()
-    );
+    assert!(files.len() > 100, "corpus looks incomplete: {} files", files.len());
     let (mut ok, mut err) = (0, 0);
     for f in &files {
         let result = std::panic::catch_unwind(|| veach::load_gltf(f));
@@ -255,8 +183,7 @@ fn the_gltf_validator_corpus_never_panics() {
             Ok(Ok(_)) => ok += 1,
             Ok(Err(e)) => {
                 assert!(
-                    e.to_string()
-                        .contains(f.file_name().unwrap().to_str().unwrap()),
+                    e.to_string().contains(f.file_name().unwrap().to_str().unwrap()),
                     "error does not name the file: {e}"
                 );
                 err += 1
@@ -264,8 +191,5 @@ fn the_gltf_validator_corpus_never_panics() {
             Err(_) => panic!("panic while loading {}", f.display()),
         }
     }
-    eprintln!(
-        "glTF-Validator corpus: {} files, {ok} loaded, {err} rejected with an error",
-        files.len()
-    );
+    eprintln!("glTF-Validator corpus: {} files, {ok} loaded, {err} rejected with an error", files.len());
 }

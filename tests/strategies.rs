@@ -26,38 +26,19 @@ const fn config(
     selection: LightSelection,
     heuristic: Heuristic,
 ) -> Config {
-    Config {
-        name,
-        strategy,
-        spp,
-        light,
-        brdf,
-        selection,
-        heuristic,
-    }
+    Config { name, strategy, spp, light, brdf, selection, heuristic }
 }
 
 /// Compares each config with the reference over `block`×`block` regions, per colour channel.
 /// The statistic |m_s − m_ref| / sqrt(σ²_s + σ²_ref) is bounded by the Bonferroni z for all
 /// comparisons of the test at family-wise significance 1e-3.
-fn check_scene(
-    scene_name: &str,
-    width: u32,
-    height: u32,
-    block: u32,
-    reference: Config,
-    configs: &[Config],
-) {
+fn check_scene(scene_name: &str, width: u32, height: u32, block: u32, reference: Config, configs: &[Config]) {
     let scene = if scene_name.ends_with(".gltf") {
         veach::load_gltf(std::path::Path::new(scene_name)).unwrap()
     } else {
         shipped_scene(scene_name)
     };
-    let scene_name = std::path::Path::new(scene_name)
-        .file_stem()
-        .unwrap()
-        .to_str()
-        .unwrap();
+    let scene_name = std::path::Path::new(scene_name).file_stem().unwrap().to_str().unwrap();
     let camera = scene.camera(None).unwrap();
     let gpu_scene = upload(&scene);
     let settings = |c: &Config, seed: u32| RenderSettings {
@@ -110,10 +91,7 @@ fn check_scene(
                 }
             }
         }
-        eprintln!(
-            "{scene_name} {}: worst |Δ|/σ = {worst:.2} (bound {z:.2})",
-            c.name
-        );
+        eprintln!("{scene_name} {}: worst |Δ|/σ = {worst:.2} (bound {z:.2})", c.name);
         if failed {
             let diff: Vec<[f32; 3]> = out
                 .mean()
@@ -132,12 +110,7 @@ fn check_scene(
             eprintln!("images written to {}", dir.display());
         }
     }
-    assert!(
-        failures.is_empty(),
-        "{} comparison(s) off:\n{}",
-        failures.len(),
-        failures.join("\n")
-    );
+    assert!(failures.is_empty(), "{} comparison(s) off:\n{}", failures.len(), failures.join("\n"));
 }
 
 use Heuristic::{Balance, Power as PowerHeuristic};
@@ -195,12 +168,7 @@ fn all_strategies_agree_on_glossy_surfaces() {
         Vec3::new(0.0, -1.0, 0.3),
     );
     g.add_mesh("light", &l, light, Mat4::IDENTITY);
-    g.camera(
-        "camera",
-        Vec3::new(0.0, 1.0, 2.6),
-        Vec3::new(0.0, 0.0, -0.6),
-        50.0,
-    );
+    g.camera("camera", Vec3::new(0.0, 1.0, 2.6), Vec3::new(0.0, 0.0, -0.6), 50.0);
     let path = output_dir("scenes").join("glossy.gltf");
     g.write(&path).unwrap();
     check_scene(
@@ -237,33 +205,9 @@ fn mis_variants_agree_on_the_veach_mis_scene() {
         &[
             config("mis-balance", Strategy::Mis, 64, 2, 4, Each, Balance),
             config("mis-power", Strategy::Mis, 64, 4, 4, Each, PowerHeuristic),
-            config(
-                "mis-power-selection",
-                Strategy::Mis,
-                64,
-                8,
-                8,
-                Power,
-                PowerHeuristic,
-            ),
-            config(
-                "mis-uniform-selection",
-                Strategy::Mis,
-                64,
-                8,
-                4,
-                Uniform,
-                Balance,
-            ),
-            config(
-                "mis-brdf-heavy",
-                Strategy::Mis,
-                64,
-                1,
-                16,
-                Each,
-                PowerHeuristic,
-            ),
+            config("mis-power-selection", Strategy::Mis, 64, 8, 8, Power, PowerHeuristic),
+            config("mis-uniform-selection", Strategy::Mis, 64, 8, 4, Uniform, Balance),
+            config("mis-brdf-heavy", Strategy::Mis, 64, 1, 16, Each, PowerHeuristic),
         ],
     );
 }

@@ -21,9 +21,7 @@ pub fn renderer() -> &'static Renderer {
 
 /// Where tests leave files to look at (images of a failed comparison, histograms).
 pub fn output_dir(test: &str) -> PathBuf {
-    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR"))
-        .join("veach-tests")
-        .join(test);
+    let dir = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("veach-tests").join(test);
     std::fs::create_dir_all(&dir).unwrap();
     dir
 }
@@ -36,22 +34,16 @@ pub fn load(builder: &GltfBuilder, name: &str) -> Scene {
 }
 
 pub fn shipped_scene(name: &str) -> Scene {
-    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-        .join("../../assets")
-        .join(format!("{name}.gltf"));
+    let path = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../assets").join(format!("{name}.gltf"));
     veach::load_gltf(&path).unwrap_or_else(|e| panic!("{e}"))
 }
 
 pub fn render(scene: &GpuScene, settings: &RenderSettings, camera: &Camera) -> RenderOutput {
-    renderer()
-        .render(scene, settings, camera, &mut |_| true)
-        .unwrap_or_else(|e| panic!("{e}"))
+    renderer().render(scene, settings, camera, &mut |_| true).unwrap_or_else(|e| panic!("{e}"))
 }
 
 pub fn upload(scene: &Scene) -> GpuScene {
-    renderer()
-        .upload_scene(scene)
-        .unwrap_or_else(|e| panic!("{e}"))
+    renderer().upload_scene(scene).unwrap_or_else(|e| panic!("{e}"))
 }
 
 /// Mean over a pixel rectangle of the per-pixel means, and the variance of that mean
@@ -78,10 +70,7 @@ pub fn region(out: &RenderOutput, x0: u32, y0: u32, x1: u32, y1: u32) -> RegionE
             count += 1.0;
         }
     }
-    RegionEstimate {
-        mean: m.map(|s| s / count),
-        var: v.map(|s| s / (count * count)),
-    }
+    RegionEstimate { mean: m.map(|s| s / count), var: v.map(|s| s / (count * count)) }
 }
 
 /// erfc with fractional error below 1.2e-7 (Numerical Recipes, 2nd ed., §6.2, `erfcc`).
@@ -95,8 +84,7 @@ pub fn erfc(x: f64) -> f64 {
                     + t * (0.09678418
                         + t * (-0.18628806
                             + t * (0.27886807
-                                + t * (-1.13520398
-                                    + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277)))))))))
+                                + t * (-1.13520398 + t * (1.48851587 + t * (-0.82215223 + t * 0.17087277)))))))))
             .exp();
     if x >= 0.0 { r } else { 2.0 - r }
 }
@@ -109,11 +97,7 @@ pub fn bonferroni_z(alpha: f64, comparisons: usize) -> f64 {
     for _ in 0..200 {
         let mid = 0.5 * (lo + hi);
         // P(|Z| > z) = erfc(z / sqrt 2)
-        if erfc(mid / std::f64::consts::SQRT_2) > target {
-            lo = mid
-        } else {
-            hi = mid
-        }
+        if erfc(mid / std::f64::consts::SQRT_2) > target { lo = mid } else { hi = mid }
     }
     hi
 }

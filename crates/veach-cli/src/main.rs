@@ -241,9 +241,7 @@ fn render(args: RenderArgs) -> Result<()> {
     for w in &scene.warnings {
         say(format!("warning: {}: {w}", args.scene.display()));
     }
-    let camera = scene
-        .camera(args.camera.as_deref())
-        .map_err(|m| anyhow::anyhow!("{}: {m}", args.scene.display()))?;
+    let camera = scene.camera(args.camera.as_deref()).map_err(|m| anyhow::anyhow!("{}: {m}", args.scene.display()))?;
     if scene.lights.is_empty() {
         say(format!(
             "warning: {}: the scene has no lights; only emitters seen directly would show",
@@ -274,24 +272,15 @@ fn render(args: RenderArgs) -> Result<()> {
             }
         });
     }
-    let bar = if args.quiet {
-        ProgressBar::hidden()
-    } else {
-        ProgressBar::new(1000)
-    };
+    let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(1000) };
     bar.set_style(
-        ProgressStyle::with_template(
-            "{spinner} [{elapsed_precise}] {wide_bar} {percent:>3}% eta {eta} {msg}",
-        )
-        .expect("valid template"),
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {percent:>3}% eta {eta} {msg}")
+            .expect("valid template"),
     );
     let pixels = settings.width as u64 * settings.height as u64;
     let out = renderer.render(&gpu_scene, &settings, &camera, &mut |p| {
         bar.set_position((p.fraction * 1000.0) as u64);
-        bar.set_message(format!(
-            "{:.1} spp",
-            p.pixel_samples_done as f64 / pixels as f64
-        ));
+        bar.set_message(format!("{:.1} spp", p.pixel_samples_done as f64 / pixels as f64));
         !stop.load(Ordering::SeqCst)
     })?;
     bar.finish_and_clear();
@@ -299,13 +288,7 @@ fn render(args: RenderArgs) -> Result<()> {
         say("interrupted: writing the samples accumulated so far".into());
     }
 
-    veach::image_io::write_image(
-        &args.output,
-        out.width,
-        out.height,
-        &out.mean(),
-        args.exposure,
-    )?;
+    veach::image_io::write_image(&args.output, out.width, out.height, &out.mean(), args.exposure)?;
     let render_s = out.render_time.as_secs_f64();
     say(format!(
         "{}: {}x{}, {:.1} spp ({} {}+{}), render {:.3} s, {:.2} Mrays/s{}",
@@ -314,22 +297,10 @@ fn render(args: RenderArgs) -> Result<()> {
         out.height,
         out.mean_samples(),
         settings.strategy.name(),
-        if settings.strategy.samples_lights() {
-            settings.light_samples
-        } else {
-            0
-        },
-        if settings.strategy == Strategy::Light {
-            0
-        } else {
-            settings.brdf_samples
-        },
+        if settings.strategy.samples_lights() { settings.light_samples } else { 0 },
+        if settings.strategy == Strategy::Light { 0 } else { settings.brdf_samples },
         render_s,
-        if render_s > 0.0 {
-            out.rays as f64 / render_s / 1e6
-        } else {
-            0.0
-        },
+        if render_s > 0.0 { out.rays as f64 / render_s / 1e6 } else { 0.0 },
         if out.nonfinite_samples > 0 {
             format!(", {} non-finite samples dropped", out.nonfinite_samples)
         } else {
@@ -337,15 +308,8 @@ fn render(args: RenderArgs) -> Result<()> {
         }
     ));
     if let Some(path) = &args.stats {
-        let stats = veach::stats::render_stats(
-            &scene,
-            &renderer,
-            &gpu_scene,
-            &settings,
-            &camera.name,
-            load_seconds,
-            &out,
-        );
+        let stats =
+            veach::stats::render_stats(&scene, &renderer, &gpu_scene, &settings, &camera.name, load_seconds, &out);
         let text = serde_json::to_string_pretty(&stats)?;
         veach::image_io::write_atomically(path, |f| {
             use std::io::Write;
@@ -359,11 +323,7 @@ fn info(path: &Path) -> Result<()> {
     let scene = veach::load_gltf(path)?;
     let b = scene.bounds();
     println!("{}", path.display());
-    println!(
-        "  triangles: {} ({} emissive)",
-        scene.triangles.len(),
-        scene.emissive_triangle_count()
-    );
+    println!("  triangles: {} ({} emissive)", scene.triangles.len(), scene.emissive_triangle_count());
     println!("  bounds: {:?} .. {:?}", b.min.to_array(), b.max.to_array());
     println!("  materials: {}", scene.materials.len());
     for m in &scene.materials {
@@ -391,12 +351,7 @@ fn info(path: &Path) -> Result<()> {
     }
     println!("  cameras: {}", scene.cameras.len());
     for c in &scene.cameras {
-        println!(
-            "    '{}' at {:?}, yfov {:.1}°",
-            c.name,
-            c.position.to_array(),
-            c.yfov.to_degrees()
-        );
+        println!("    '{}' at {:?}, yfov {:.1}°", c.name, c.position.to_array(), c.yfov.to_degrees());
     }
     for w in &scene.warnings {
         println!("  warning: {w}");
@@ -405,8 +360,7 @@ fn info(path: &Path) -> Result<()> {
 }
 
 fn generate(name: &str, output: &Path) -> Result<()> {
-    let builder =
-        veach::assets::generate_scene(name).with_context(|| format!("unknown scene '{name}'"))?;
+    let builder = veach::assets::generate_scene(name).with_context(|| format!("unknown scene '{name}'"))?;
     builder.write(output)?;
     eprintln!("wrote {}", output.display());
     Ok(())

@@ -22,18 +22,8 @@ pub fn build_bvh(triangles: &[Triangle]) -> Bvh {
     if triangles.is_empty() {
         // One leaf holding the zero-area placeholder triangle that `build_scene_arrays` uploads
         // for an empty scene: the watertight test never reports a hit on it.
-        let nodes = vec![BvhNode {
-            min: [0.0; 3],
-            first: 0,
-            max: [0.0; 3],
-            count: 1,
-        }];
-        return Bvh {
-            nodes,
-            order: Vec::new(),
-            build_time: start.elapsed(),
-            sah_cost: 0.0,
-        };
+        let nodes = vec![BvhNode { min: [0.0; 3], first: 0, max: [0.0; 3], count: 1 }];
+        return Bvh { nodes, order: Vec::new(), build_time: start.elapsed(), sah_cost: 0.0 };
     }
     let tris: Vec<obvhs::triangle::Triangle> = triangles
         .iter()
@@ -44,11 +34,7 @@ pub fn build_bvh(triangles: &[Triangle]) -> Bvh {
         })
         .collect();
     let mut core_time = Duration::ZERO;
-    let bvh2 = obvhs::bvh2::builder::build_bvh2_from_tris(
-        &tris,
-        BvhBuildParams::medium_build(),
-        &mut core_time,
-    );
+    let bvh2 = obvhs::bvh2::builder::build_bvh2_from_tris(&tris, BvhBuildParams::medium_build(), &mut core_time);
     let nodes: Vec<BvhNode> = bvh2
         .nodes
         .iter()
@@ -60,20 +46,11 @@ pub fn build_bvh(triangles: &[Triangle]) -> Bvh {
         })
         .collect();
     let sah_cost = sah_cost(&nodes);
-    Bvh {
-        nodes,
-        order: bvh2.primitive_indices,
-        build_time: start.elapsed(),
-        sah_cost,
-    }
+    Bvh { nodes, order: bvh2.primitive_indices, build_time: start.elapsed(), sah_cost }
 }
 
 fn half_area(n: &BvhNode) -> f32 {
-    let d = [
-        n.max[0] - n.min[0],
-        n.max[1] - n.min[1],
-        n.max[2] - n.min[2],
-    ];
+    let d = [n.max[0] - n.min[0], n.max[1] - n.min[1], n.max[2] - n.min[2]];
     d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
 }
 
@@ -81,10 +58,7 @@ fn half_area(n: &BvhNode) -> f32 {
 /// a random ray that hits the root (MacDonald & Booth 1990).
 fn sah_cost(nodes: &[BvhNode]) -> f32 {
     let root = half_area(&nodes[0]).max(f32::MIN_POSITIVE);
-    nodes
-        .iter()
-        .map(|n| half_area(n) / root * if n.count > 0 { n.count as f32 } else { 1.0 })
-        .sum()
+    nodes.iter().map(|n| half_area(n) / root * if n.count > 0 { n.count as f32 } else { 1.0 }).sum()
 }
 
 #[cfg(test)]
@@ -98,11 +72,7 @@ mod tests {
             for j in 0..n {
                 let o = Vec3::new(i as f32, j as f32, (i * j % 7) as f32 * 0.1);
                 let p = [o, o + Vec3::X, o + Vec3::Y];
-                out.push(Triangle {
-                    p,
-                    n: [Vec3::Z; 3],
-                    material: 0,
-                });
+                out.push(Triangle { p, n: [Vec3::Z; 3], material: 0 });
             }
         }
         out
@@ -124,20 +94,14 @@ mod tests {
                 }
             }
         }
-        assert!(
-            seen.iter().all(|&c| c == 1),
-            "a triangle is missing or duplicated"
-        );
+        assert!(seen.iter().all(|&c| c == 1), "a triangle is missing or duplicated");
     }
 
     #[test]
     fn children_lie_inside_their_parent() {
         let bvh = build_bvh(&grid(30));
         for n in bvh.nodes.iter().filter(|n| n.count == 0) {
-            for c in [
-                &bvh.nodes[n.first as usize],
-                &bvh.nodes[n.first as usize + 1],
-            ] {
+            for c in [&bvh.nodes[n.first as usize], &bvh.nodes[n.first as usize + 1]] {
                 for k in 0..3 {
                     assert!(c.min[k] >= n.min[k] && c.max[k] <= n.max[k]);
                 }

@@ -23,9 +23,6 @@ pub type Result<T> = std::result::Result<T, Error>;
 
 impl Error {
     pub fn scene(path: impl Into<PathBuf>, message: impl Into<String>) -> Self {
-        Error::Scene {
-            path: path.into(),
-            message: message.into(),
-        }
+        Error::Scene { path: path.into(), message: message.into() }
     }
 }

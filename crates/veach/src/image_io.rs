@@ -15,18 +15,14 @@ pub enum ImageFormat {
 
 impl ImageFormat {
     pub fn from_path(path: &Path) -> Result<ImageFormat> {
-        let ext = path
-            .extension()
-            .and_then(|e| e.to_str())
-            .map(str::to_ascii_lowercase);
+        let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
         match ext.as_deref() {
             Some("exr") => Ok(ImageFormat::Exr),
             Some("png") => Ok(ImageFormat::Png),
             Some("pfm") => Ok(ImageFormat::Pfm),
             _ => Err(Error::Output {
                 path: path.to_owned(),
-                message: "unknown image type: use .exr (linear float), .png (8-bit sRGB) or .pfm"
-                    .into(),
+                message: "unknown image type: use .exr (linear float), .png (8-bit sRGB) or .pfm".into(),
             }),
         }
     }
@@ -34,35 +30,20 @@ impl ImageFormat {
 
 /// sRGB transfer function (IEC 61966-2-1).
 pub fn linear_to_srgb(v: f32) -> f32 {
-    if v <= 0.0031308 {
-        12.92 * v
-    } else {
-        1.055 * v.powf(1.0 / 2.4) - 0.055
-    }
+    if v <= 0.0031308 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 }
 }
 
 /// Writes linear RGB pixels (row-major, top row first). `exposure` is in stops and applies to
 /// PNG only; float formats keep the radiance values as they are.
-pub fn write_image(
-    path: &Path,
-    width: u32,
-    height: u32,
-    pixels: &[[f32; 3]],
-    exposure: f32,
-) -> Result<()> {
+pub fn write_image(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]], exposure: f32) -> Result<()> {
     let format = ImageFormat::from_path(path)?;
     assert_eq!(pixels.len(), (width * height) as usize);
-    let clean: Vec<[f32; 3]> = pixels
-        .iter()
-        .map(|p| p.map(|v| if v.is_finite() { v } else { 0.0 }))
-        .collect();
+    let clean: Vec<[f32; 3]> = pixels.iter().map(|p| p.map(|v| if v.is_finite() { v } else { 0.0 })).collect();
     write_atomically(path, |file| match format {
         ImageFormat::Exr => {
             let data: Vec<f32> = clean.iter().flatten().copied().collect();
-            let img =
-                image::Rgb32FImage::from_raw(width, height, data).expect("pixel count checked");
-            img.write_to(file, image::ImageFormat::OpenExr)
-                .map_err(|e| e.to_string())
+            let img = image::Rgb32FImage::from_raw(width, height, data).expect("pixel count checked");
+            img.write_to(file, image::ImageFormat::OpenExr).map_err(|e| e.to_string())
         }
         ImageFormat::Png => {
             let scale = 2f32.powf(exposure);
@@ -72,20 +53,14 @@ pub fn write_image(
                 .map(|&v| (linear_to_srgb((v * scale).clamp(0.0, 1.0)) * 255.0 + 0.5) as u8)
                 .collect();
             let img = image::RgbImage::from_raw(width, height, data).expect("pixel count checked");
-            img.write_to(file, image::ImageFormat::Png)
-                .map_err(|e| e.to_string())
+            img.write_to(file, image::ImageFormat::Png).map_err(|e| e.to_string())
         }
         ImageFormat::Pfm => write_pfm(file, width, height, &clean).map_err(|e| e.to_string()),
     })
 }
 
 /// Portable float map: "PF", size, -1 (little endian), then rows from the bottom up.
-fn write_pfm(
-    out: &mut BufWriter<std::fs::File>,
-    width: u32,
-    height: u32,
-    pixels: &[[f32; 3]],
-) -> std::io::Result<()> {
+fn write_pfm(out: &mut BufWriter<std::fs::File>, width: u32, height: u32, pixels: &[[f32; 3]]) -> std::io::Result<()> {
     write!(out, "PF\n{width} {height}\n-1.0\n")?;
     for row in (0..height as usize).rev() {
         for p in &pixels[row * width as usize..(row + 1) * width as usize] {
@@ -98,10 +73,7 @@ fn write_pfm(
 }
 
 fn temp_path(path: &Path) -> PathBuf {
-    let name = path
-        .file_name()
-        .map(|n| n.to_string_lossy().into_owned())
-        .unwrap_or_default();
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
 }
 
@@ -110,13 +82,9 @@ pub fn write_atomically(
     path: &Path,
     write: impl FnOnce(&mut BufWriter<std::fs::File>) -> std::result::Result<(), String>,
 ) -> Result<()> {
-    let err = |m: String| Error::Output {
-        path: path.to_owned(),
-        message: m,
-    };
+    let err = |m: String| Error::Output { path: path.to_owned(), message: m };
     let tmp = temp_path(path);
-    let file = std::fs::File::create(&tmp)
-        .map_err(|e| err(format!("cannot create {}: {e}", tmp.display())))?;
+    let file = std::fs::File::create(&tmp).map_err(|e| err(format!("cannot create {}: {e}", tmp.display())))?;
     let mut writer = BufWriter::new(file);
     let result = write(&mut writer)
         .and_then(|_| writer.flush().map_err(|e| e.to_string()))
@@ -134,16 +102,11 @@ pub fn write_atomically(
 
 /// Reads a linear RGB image (EXR or PFM as written above, or any format `image` reads).
 pub fn read_image(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
-    let err = |m: String| Error::Output {
-        path: path.to_owned(),
-        message: m,
-    };
+    let err = |m: String| Error::Output { path: path.to_owned(), message: m };
     if ImageFormat::from_path(path).ok() == Some(ImageFormat::Pfm) {
         return read_pfm(path).map_err(err);
     }
-    let img = image::open(path)
-        .map_err(|e| err(e.to_string()))?
-        .into_rgb32f();
+    let img = image::open(path).map_err(|e| err(e.to_string()))?.into_rgb32f();
     let (w, h) = img.dimensions();
     Ok((w, h, img.pixels().map(|p| p.0).collect()))
 }
@@ -178,11 +141,7 @@ fn read_pfm(path: &Path) -> std::result::Result<(u32, u32, Vec<[f32; 3]>), Strin
     }
     let read = |i: usize| {
         let b: [u8; 4] = bytes[pos + 4 * i..pos + 4 * i + 4].try_into().unwrap();
-        if scale < 0.0 {
-            f32::from_le_bytes(b)
-        } else {
-            f32::from_be_bytes(b)
-        }
+        if scale < 0.0 { f32::from_le_bytes(b) } else { f32::from_be_bytes(b) }
     };
     let mut out = vec![[0.0; 3]; n];
     for row in 0..h as usize {
@@ -228,11 +187,7 @@ mod tests {
         let r = write_atomically(&p, |_| Err("simulated failure".into()));
         assert!(r.is_err());
         assert_eq!(std::fs::read(&p).unwrap(), b"old");
-        assert_eq!(
-            std::fs::read_dir(&dir).unwrap().count(),
-            1,
-            "temporary file left behind"
-        );
+        assert_eq!(std::fs::read_dir(&dir).unwrap().count(), 1, "temporary file left behind");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -16,7 +16,5 @@ pub mod stats;
 
 pub use error::{Error, Result};
 pub use gpu::context::GpuContext;
-pub use render::{
-    GpuScene, Heuristic, LightSelection, RenderOutput, RenderSettings, Renderer, Strategy,
-};
+pub use render::{GpuScene, Heuristic, LightSelection, RenderOutput, RenderSettings, Renderer, Strategy};
 pub use scene::{Scene, load_gltf};

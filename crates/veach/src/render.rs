@@ -4,6 +4,7 @@
 
 use crate::bvh::build_bvh;
 use crate::error::{Error, Result};
+use crate::gpu::bindings;
 use crate::gpu::context::GpuContext;
 use crate::gpu::layout::{self, FrameParams, PixelCounters, WORKGROUP_SIZE};
 use crate::gpu::scene_buffers::{SceneArrays, build_scene_arrays};
@@ -78,6 +79,8 @@ pub struct RenderSettings {
     pub time_limit: Option<Duration>,
     /// Aim for dispatches of about this long.
     pub dispatch_target: Duration,
+    /// Also accumulate the light-sample and BRDF-sample contribution images.
+    pub write_aovs: bool,
 }
 
 impl Default for RenderSettings {
@@ -95,6 +98,7 @@ impl Default for RenderSettings {
             seed: 0,
             time_limit: None,
             dispatch_target: Duration::from_millis(150),
+            write_aovs: false,
         }
     }
 }
@@ -115,6 +119,8 @@ pub struct RenderOutput {
     /// Per pixel: sum of radiance samples (rgb) and the number of camera samples (w).
     pub sum: Vec<[f32; 4]>,
     pub sum_sq: Vec<[f32; 4]>,
+    /// Sums of the light-sample and BRDF-sample contributions (with `write_aovs`).
+    pub aovs: Option<(Vec<[f32; 4]>, Vec<[f32; 4]>)>,
     pub rays: u64,
     pub nonfinite_samples: u64,
     pub render_time: Duration,
@@ -178,8 +184,8 @@ pub struct SceneUploadStats {
 /// A scene on the GPU: its BVH, triangles, materials and lights, ready to render with any
 /// settings and camera.
 pub struct GpuScene {
-    buffers: Vec<wgpu::Buffer>,
-    light_count: u32,
+    pub(crate) buffers: Vec<wgpu::Buffer>,
+    pub(crate) light_count: u32,
     pub stats: SceneUploadStats,
 }
 
@@ -187,15 +193,12 @@ pub struct GpuScene {
 pub struct Renderer {
     pub gpu: GpuContext,
     pipeline: wgpu::ComputePipeline,
+    bind_group_layout: wgpu::BindGroupLayout,
     /// Kernel compilation, including the driver's compile at the first dispatch.
     pub pipeline_creation: Duration,
 }
 
-fn storage_buffer<T: bytemuck::Pod + Default>(
-    device: &wgpu::Device,
-    label: &str,
-    data: &[T],
-) -> wgpu::Buffer {
+fn storage_buffer<T: bytemuck::Pod + Default>(device: &wgpu::Device, label: &str, data: &[T]) -> wgpu::Buffer {
     // Bindings may not be empty: an empty array is uploaded as one zeroed element.
     let fallback = [T::default()];
     let contents: &[T] = if data.is_empty() { &fallback } else { data };
@@ -210,45 +213,20 @@ impl Renderer {
     /// Compiles the kernel.
     pub fn new(gpu: GpuContext) -> Result<Renderer> {
         let start = Instant::now();
-        let device = &gpu.device;
-        let source = shaders::render_kernel_source();
-        let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("veach render kernel"),
-            source: wgpu::ShaderSource::Wgsl(source.into()),
-        });
-        let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-            label: Some("render"),
-            layout: None,
-            module: &module,
-            entry_point: Some(shaders::RENDER_ENTRY_POINT),
-            compilation_options: Default::default(),
-            cache: None,
-        });
-        if let Some(e) = pollster::block_on(scope.pop()) {
-            return Err(Error::Gpu(format!("kernel creation failed: {e}")));
-        }
-        let mut renderer = Renderer {
-            gpu,
-            pipeline,
-            pipeline_creation: Duration::ZERO,
-        };
+        let (pipeline, bind_group_layout) = bindings::create_pipeline(
+            &gpu.device,
+            "veach render kernel",
+            shaders::render_kernel_source(),
+            shaders::RENDER_ENTRY_POINT,
+            false,
+        )
+        .map_err(Error::Gpu)?;
+        let mut renderer = Renderer { gpu, pipeline, bind_group_layout, pipeline_creation: Duration::ZERO };
         // Drivers such as lavapipe compile at the first dispatch: do it here, so that render
         // times measure rendering only.
         let empty = renderer.upload_scene(&Scene::default())?;
-        let settings = RenderSettings {
-            width: 1,
-            height: 1,
-            spp: 1,
-            ..Default::default()
-        };
-        let camera = Camera::look_at(
-            "warm-up",
-            glam::Vec3::Z,
-            glam::Vec3::ZERO,
-            glam::Vec3::Y,
-            1.0,
-        );
+        let settings = RenderSettings { width: 1, height: 1, spp: 1, ..Default::default() };
+        let camera = Camera::look_at("warm-up", glam::Vec3::Z, glam::Vec3::ZERO, glam::Vec3::Y, 1.0);
         renderer.render(&empty, &settings, &camera, &mut |_| true)?;
         renderer.pipeline_creation = start.elapsed();
         Ok(renderer)
@@ -293,14 +271,39 @@ impl Renderer {
         ];
         stats.gpu_scene_bytes = buffers.iter().map(|b| b.size()).sum();
         stats.upload = upload_start.elapsed();
-        Ok(GpuScene {
-            buffers,
-            light_count: scene.lights.len() as u32,
-            stats,
-        })
+        Ok(GpuScene { buffers, light_count: scene.lights.len() as u32, stats })
     }
 
-    fn frame_params(&self, light_count: u32, s: &RenderSettings, camera: &Camera) -> FrameParams {
+    /// The bind group of a dispatch, in the binding order of `gpu::bindings`: frame parameters,
+    /// the scene, the five output buffers and (test kernels only) the test bindings.
+    pub(crate) fn bind_group(
+        &self,
+        layout: &wgpu::BindGroupLayout,
+        frame: &wgpu::Buffer,
+        scene: &GpuScene,
+        outputs: &[&wgpu::Buffer; 5],
+        test_io: &[(u32, &wgpu::Buffer)],
+    ) -> wgpu::BindGroup {
+        let mut entries = vec![wgpu::BindGroupEntry { binding: bindings::FRAME, resource: frame.as_entire_binding() }];
+        for (i, b) in scene.buffers.iter().enumerate() {
+            entries.push(wgpu::BindGroupEntry {
+                binding: bindings::SCENE_FIRST + i as u32,
+                resource: b.as_entire_binding(),
+            });
+        }
+        for (i, b) in outputs.iter().enumerate() {
+            entries.push(wgpu::BindGroupEntry {
+                binding: bindings::OUTPUT_FIRST + i as u32,
+                resource: b.as_entire_binding(),
+            });
+        }
+        for (binding, b) in test_io {
+            entries.push(wgpu::BindGroupEntry { binding: *binding, resource: b.as_entire_binding() });
+        }
+        self.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("veach"), layout, entries: &entries })
+    }
+
+    pub(crate) fn frame_params(&self, light_count: u32, s: &RenderSettings, camera: &Camera) -> FrameParams {
         FrameParams {
             camera: camera.to_gpu(s.width, s.height),
             width: s.width,
@@ -312,16 +315,8 @@ impl Renderer {
                 Strategy::Light => layout::STRATEGY_LIGHT,
                 Strategy::Mis => layout::STRATEGY_MIS,
             },
-            light_samples: if s.strategy.samples_lights() {
-                s.light_samples
-            } else {
-                0
-            },
-            brdf_samples: if s.strategy == Strategy::Light {
-                0
-            } else {
-                s.brdf_samples
-            },
+            light_samples: if s.strategy.samples_lights() { s.light_samples } else { 0 },
+            brdf_samples: if s.strategy == Strategy::Light { 0 } else { s.brdf_samples },
             heuristic: match s.heuristic {
                 Heuristic::Balance => layout::HEURISTIC_BALANCE,
                 Heuristic::Power => layout::HEURISTIC_POWER,
@@ -332,6 +327,7 @@ impl Renderer {
                 LightSelection::Power => layout::SELECT_POWER,
             },
             light_count,
+            write_aovs: s.write_aovs as u32,
             ..Default::default()
         }
     }
@@ -371,10 +367,10 @@ impl Renderer {
         };
         let accum = zeroed("accum", accum_bytes);
         let accum_sq = zeroed("accum_sq", accum_bytes);
-        let counters = zeroed(
-            "counters",
-            pixels * std::mem::size_of::<PixelCounters>() as u64,
-        );
+        let counters = zeroed("counters", pixels * std::mem::size_of::<PixelCounters>() as u64);
+        let aov_bytes = if settings.write_aovs { accum_bytes } else { 16 };
+        let aov_light = zeroed("aov_light", aov_bytes);
+        let aov_brdf = zeroed("aov_brdf", aov_bytes);
         let params_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("frame params"),
             size: std::mem::size_of::<FrameParams>() as u64,
@@ -382,27 +378,8 @@ impl Renderer {
             mapped_at_creation: false,
         });
 
-        let mut entries: Vec<wgpu::BindGroupEntry> = vec![wgpu::BindGroupEntry {
-            binding: 0,
-            resource: params_buffer.as_entire_binding(),
-        }];
-        for (i, b) in scene.buffers.iter().enumerate() {
-            entries.push(wgpu::BindGroupEntry {
-                binding: 1 + i as u32,
-                resource: b.as_entire_binding(),
-            });
-        }
-        for (i, b) in [&accum, &accum_sq, &counters].into_iter().enumerate() {
-            entries.push(wgpu::BindGroupEntry {
-                binding: 8 + i as u32,
-                resource: b.as_entire_binding(),
-            });
-        }
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label: Some("render"),
-            layout: &self.pipeline.get_bind_group_layout(0),
-            entries: &entries,
-        });
+        let outputs = [&accum, &accum_sq, &counters, &aov_light, &aov_brdf];
+        let bind_group = self.bind_group(&self.bind_group_layout, &params_buffer, scene, &outputs, &[]);
 
         let mut params = self.frame_params(scene.light_count, settings, camera);
         let total_pixel_samples = pixels * settings.spp as u64;
@@ -416,9 +393,7 @@ impl Renderer {
         let mut interrupted = false;
         let max_dim = device.limits().max_compute_workgroups_per_dimension;
         if w.div_ceil(WORKGROUP_SIZE.0) > max_dim {
-            return Err(Error::Options(format!(
-                "width {w} exceeds this adapter's dispatch limit"
-            )));
+            return Err(Error::Options(format!("width {w} exceeds this adapter's dispatch limit")));
         }
         loop {
             let within_time = settings.time_limit.is_none_or(|t| render_time < t);
@@ -447,11 +422,7 @@ impl Renderer {
                 let mut pass = encoder.begin_compute_pass(&Default::default());
                 pass.set_pipeline(&self.pipeline);
                 pass.set_bind_group(0, &bind_group, &[]);
-                pass.dispatch_workgroups(
-                    w.div_ceil(WORKGROUP_SIZE.0),
-                    rows.div_ceil(WORKGROUP_SIZE.1),
-                    1,
-                );
+                pass.dispatch_workgroups(w.div_ceil(WORKGROUP_SIZE.0), rows.div_ceil(WORKGROUP_SIZE.1), 1);
             }
             let start = Instant::now();
             queue.submit([encoder.finish()]);
@@ -469,19 +440,11 @@ impl Renderer {
                 row_start = 0;
                 sample_start += samples;
             }
-            let mut fraction = if total_pixel_samples > 0 {
-                done as f64 / total_pixel_samples as f64
-            } else {
-                1.0
-            };
+            let mut fraction = if total_pixel_samples > 0 { done as f64 / total_pixel_samples as f64 } else { 1.0 };
             if let Some(t) = settings.time_limit {
                 fraction = fraction.max(render_time.as_secs_f64() / t.as_secs_f64().max(1e-9));
             }
-            let p = Progress {
-                fraction: fraction.min(1.0),
-                pixel_samples_done: done,
-                elapsed: render_time,
-            };
+            let p = Progress { fraction: fraction.min(1.0), pixel_samples_done: done, elapsed: render_time };
             if !progress(p) {
                 interrupted = sample_start < settings.spp;
                 break;
@@ -491,11 +454,17 @@ impl Renderer {
         let sum: Vec<[f32; 4]> = read_buffer(device, queue, &accum)?;
         let sum_sq: Vec<[f32; 4]> = read_buffer(device, queue, &accum_sq)?;
         let counts: Vec<PixelCounters> = read_buffer(device, queue, &counters)?;
+        let aovs = if settings.write_aovs {
+            Some((read_buffer(device, queue, &aov_light)?, read_buffer(device, queue, &aov_brdf)?))
+        } else {
+            None
+        };
         Ok(RenderOutput {
             width: w,
             height: h,
             sum,
             sum_sq,
+            aovs,
             rays: counts.iter().map(|c| c.rays as u64).sum(),
             nonfinite_samples: counts.iter().map(|c| c.nonfinite as u64).sum(),
             render_time,
@@ -506,11 +475,7 @@ impl Renderer {
 }
 
 /// Copies a GPU buffer back to the host.
-fn read_buffer<T: bytemuck::Pod>(
-    device: &wgpu::Device,
-    queue: &wgpu::Queue,
-    src: &wgpu::Buffer,
-) -> Result<Vec<T>> {
+pub(crate) fn read_buffer<T: bytemuck::Pod>(device: &wgpu::Device, queue: &wgpu::Queue, src: &wgpu::Buffer) -> Result<Vec<T>> {
     let staging = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback"),
         size: src.size(),
@@ -531,9 +496,7 @@ fn read_buffer<T: bytemuck::Pod>(
     rx.recv()
         .map_err(|_| Error::Gpu("readback was cancelled".into()))?
         .map_err(|e| Error::Gpu(format!("readback failed: {e}")))?;
-    let data = slice
-        .get_mapped_range()
-        .map_err(|e| Error::Gpu(format!("readback failed: {e}")))?;
+    let data = slice.get_mapped_range().map_err(|e| Error::Gpu(format!("readback failed: {e}")))?;
     let out = bytemuck::cast_slice(&data).to_vec();
     drop(data);
     staging.unmap();

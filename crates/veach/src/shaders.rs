@@ -4,22 +4,13 @@
 pub const SHADER_FILES: &[(&str, &str)] = &[
     ("layout.wgsl", include_str!("../../../shaders/layout.wgsl")),
     ("rng.wgsl", include_str!("../../../shaders/rng.wgsl")),
-    (
-        "sampling.wgsl",
-        include_str!("../../../shaders/sampling.wgsl"),
-    ),
+    ("sampling.wgsl", include_str!("../../../shaders/sampling.wgsl")),
     ("camera.wgsl", include_str!("../../../shaders/camera.wgsl")),
-    (
-        "traverse.wgsl",
-        include_str!("../../../shaders/traverse.wgsl"),
-    ),
+    ("traverse.wgsl", include_str!("../../../shaders/traverse.wgsl")),
     ("bsdf.wgsl", include_str!("../../../shaders/bsdf.wgsl")),
     ("lights.wgsl", include_str!("../../../shaders/lights.wgsl")),
     ("mis.wgsl", include_str!("../../../shaders/mis.wgsl")),
-    (
-        "integrator.wgsl",
-        include_str!("../../../shaders/integrator.wgsl"),
-    ),
+    ("integrator.wgsl", include_str!("../../../shaders/integrator.wgsl")),
 ];
 
 /// Name of the compute entry point in `integrator.wgsl`.
@@ -40,12 +31,9 @@ pub fn render_kernel_source() -> String {
 /// Parses and validates WGSL with naga, returning a readable error that names the file and line.
 pub fn validate_wgsl(source: &str) -> Result<naga::Module, String> {
     let module = naga::front::wgsl::parse_str(source).map_err(|e| e.emit_to_string(source))?;
-    naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::default(),
-    )
-    .validate(&module)
-    .map_err(|e| e.emit_to_string(source))?;
+    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default())
+        .validate(&module)
+        .map_err(|e| e.emit_to_string(source))?;
     Ok(module)
 }
 
@@ -58,10 +46,7 @@ mod tests {
         let source = render_kernel_source();
         let module = validate_wgsl(&source).unwrap_or_else(|e| panic!("WGSL invalid:\n{e}"));
         assert!(
-            module
-                .entry_points
-                .iter()
-                .any(|e| e.name == RENDER_ENTRY_POINT && e.stage == naga::ShaderStage::Compute),
+            module.entry_points.iter().any(|e| e.name == RENDER_ENTRY_POINT && e.stage == naga::ShaderStage::Compute),
             "no compute entry point `{RENDER_ENTRY_POINT}`"
         );
     }
@@ -81,10 +66,7 @@ mod tests {
             let naga::TypeInner::Struct { members, span } = &ty.inner else {
                 panic!("{name} is not a struct in WGSL");
             };
-            assert_eq!(
-                *span as usize, size,
-                "size of {name}: WGSL {span}, Rust {size}"
-            );
+            assert_eq!(*span as usize, size, "size of {name}: WGSL {span}, Rust {size}");
             assert_eq!(layouter[handle].size as usize, size);
             for (field, offset) in fields {
                 let m = members

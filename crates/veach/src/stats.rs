@@ -108,17 +108,9 @@ pub fn render_stats(
             pipeline_creation: renderer.pipeline_creation.as_secs_f64(),
             render,
         },
-        samples_per_pixel: SamplesReport {
-            requested: settings.spp,
-            min: out.min_samples(),
-            mean: out.mean_samples(),
-        },
+        samples_per_pixel: SamplesReport { requested: settings.spp, min: out.min_samples(), mean: out.mean_samples() },
         rays: out.rays,
-        rays_per_second: if render > 0.0 {
-            out.rays as f64 / render
-        } else {
-            0.0
-        },
+        rays_per_second: if render > 0.0 { out.rays as f64 / render } else { 0.0 },
         nonfinite_samples_dropped: out.nonfinite_samples,
         dispatches: out.dispatches,
         interrupted: out.interrupted,

@@ -36,12 +36,7 @@ impl MaterialDesc {
     }
 
     pub fn metal(name: &str, color: Vec3, roughness: f32) -> Self {
-        MaterialDesc {
-            metallic: 1.0,
-            roughness,
-            specular: 1.0,
-            ..Self::lambert(name, color)
-        }
+        MaterialDesc { metallic: 1.0, roughness, specular: 1.0, ..Self::lambert(name, color) }
     }
 
     /// An emitter of radiance `radiance` (stored as a unit-max emissiveFactor × strength).
@@ -85,10 +80,7 @@ impl GltfBuilder {
         });
         let mut ext = serde_json::Map::new();
         if m.specular != 1.0 {
-            ext.insert(
-                "KHR_materials_specular".into(),
-                json!({ "specularFactor": m.specular }),
-            );
+            ext.insert("KHR_materials_specular".into(), json!({ "specularFactor": m.specular }));
         }
         if m.emission != Vec3::ZERO {
             v["emissiveFactor"] = json!([m.emission.x, m.emission.y, m.emission.z]);
@@ -123,12 +115,8 @@ impl GltfBuilder {
         let view = self.push_view(bytemuck::cast_slice(&flat), 34962);
         let mut acc = json!({ "bufferView": view, "componentType": 5126, "count": data.len(), "type": "VEC3" });
         if with_bounds {
-            let min = data
-                .iter()
-                .fold(Vec3::splat(f32::INFINITY), |a, &b| a.min(b));
-            let max = data
-                .iter()
-                .fold(Vec3::splat(f32::NEG_INFINITY), |a, &b| a.max(b));
+            let min = data.iter().fold(Vec3::splat(f32::INFINITY), |a, &b| a.min(b));
+            let max = data.iter().fold(Vec3::splat(f32::NEG_INFINITY), |a, &b| a.max(b));
             acc["min"] = json!(min.to_array());
             acc["max"] = json!(max.to_array());
         }
@@ -158,8 +146,7 @@ impl GltfBuilder {
     /// A mesh placed by a node with `transform`.
     pub fn add_mesh(&mut self, name: &str, mesh: &MeshData, material: usize, transform: Mat4) {
         let m = self.mesh(name, mesh, material);
-        self.nodes
-            .push(json!({ "name": name, "mesh": m, "matrix": transform.to_cols_array() }));
+        self.nodes.push(json!({ "name": name, "mesh": m, "matrix": transform.to_cols_array() }));
     }
 
     pub fn camera(&mut self, name: &str, position: Vec3, target: Vec3, yfov_degrees: f32) {
@@ -179,14 +166,7 @@ impl GltfBuilder {
     /// A KHR_lights_punctual light of colour × intensity `power` (W/sr for point and spot
     /// lights, W/m² for directional ones). Spot and directional lights shine from `position`
     /// towards `target`.
-    pub fn punctual_light(
-        &mut self,
-        name: &str,
-        kind: Punctual,
-        power: Vec3,
-        position: Vec3,
-        target: Vec3,
-    ) {
+    pub fn punctual_light(&mut self, name: &str, kind: Punctual, power: Vec3, position: Vec3, target: Vec3) {
         let intensity = power.max_element().max(1e-30);
         let mut light = json!({ "name": name, "color": (power / intensity).to_array(), "intensity": intensity });
         light["type"] = json!(match kind {
@@ -248,11 +228,7 @@ impl GltfBuilder {
 /// keeping +Y as close to world up as possible.
 fn look_rotation(position: Vec3, target: Vec3) -> Quat {
     let forward = (target - position).normalize();
-    let up_hint = if forward.y.abs() > 0.999 {
-        Vec3::Z
-    } else {
-        Vec3::Y
-    };
+    let up_hint = if forward.y.abs() > 0.999 { Vec3::Z } else { Vec3::Y };
     let right = forward.cross(up_hint).normalize();
     let up = right.cross(forward);
     Quat::from_mat3(&glam::Mat3::from_cols(right, up, -forward))
@@ -278,16 +254,8 @@ impl MeshData {
     /// A planar quad a-b-c-d whose front face looks along `facing`.
     pub fn quad(a: Vec3, b: Vec3, c: Vec3, d: Vec3, facing: Vec3) -> MeshData {
         let front = (b - a).cross(c - a).dot(facing) >= 0.0;
-        let indices = if front {
-            vec![0, 1, 2, 0, 2, 3]
-        } else {
-            vec![0, 2, 1, 0, 3, 2]
-        };
-        MeshData {
-            positions: vec![a, b, c, d],
-            normals: None,
-            indices,
-        }
+        let indices = if front { vec![0, 1, 2, 0, 2, 3] } else { vec![0, 2, 1, 0, 3, 2] };
+        MeshData { positions: vec![a, b, c, d], normals: None, indices }
     }
 
     pub fn append(&mut self, other: &MeshData) {
@@ -303,30 +271,13 @@ impl MeshData {
         let up = Vec3::Y * h;
         let mut m = MeshData::default();
         let out = |p: Vec3| p - center;
-        let top = [
-            corners[0] + up,
-            corners[1] + up,
-            corners[2] + up,
-            corners[3] + up,
-        ];
+        let top = [corners[0] + up, corners[1] + up, corners[2] + up, corners[3] + up];
         m.append(&MeshData::quad(top[0], top[1], top[2], top[3], Vec3::Y));
-        m.append(&MeshData::quad(
-            corners[0],
-            corners[1],
-            corners[2],
-            corners[3],
-            -Vec3::Y,
-        ));
+        m.append(&MeshData::quad(corners[0], corners[1], corners[2], corners[3], -Vec3::Y));
         for i in 0..4 {
             let j = (i + 1) % 4;
             let mid = 0.5 * (corners[i] + corners[j]) + up * 0.5;
-            m.append(&MeshData::quad(
-                corners[i],
-                corners[j],
-                top[j],
-                top[i],
-                out(mid),
-            ));
+            m.append(&MeshData::quad(corners[i], corners[j], top[j], top[i], out(mid)));
         }
         m
     }
@@ -339,11 +290,7 @@ impl MeshData {
             let theta = std::f32::consts::PI * i as f32 / stacks as f32;
             for j in 0..=slices {
                 let phi = 2.0 * std::f32::consts::PI * j as f32 / slices as f32;
-                let n = Vec3::new(
-                    theta.sin() * phi.cos(),
-                    theta.cos(),
-                    theta.sin() * phi.sin(),
-                );
+                let n = Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin());
                 positions.push(center + radius * n);
                 normals.push(n);
             }
@@ -363,10 +310,6 @@ impl MeshData {
                 }
             }
         }
-        MeshData {
-            positions,
-            normals: Some(normals),
-            indices,
-        }
+        MeshData { positions, normals: Some(normals), indices }
     }
 }

@@ -24,10 +24,7 @@ pub fn cornell_box() -> GltfBuilder {
     let mut g = GltfBuilder::new();
     let white = g.material(&MaterialDesc::lambert("white", Vec3::new(0.73, 0.73, 0.73)));
     let red = g.material(&MaterialDesc::lambert("red", Vec3::new(0.63, 0.065, 0.05)));
-    let green = g.material(&MaterialDesc::lambert(
-        "green",
-        Vec3::new(0.14, 0.45, 0.091),
-    ));
+    let green = g.material(&MaterialDesc::lambert("green", Vec3::new(0.14, 0.45, 0.091)));
     let light = g.material(&MaterialDesc::emitter("light", Vec3::new(17.0, 12.0, 4.0)));
     let v = |x: f32, y: f32, z: f32| Vec3::new(x, y, z) * 0.01;
     let (w, h, d) = (556.0, 548.8, 559.2);
@@ -35,90 +32,44 @@ pub fn cornell_box() -> GltfBuilder {
     let inward = |n: Vec3| n;
     g.add_mesh(
         "floor",
-        &MeshData::quad(
-            v(0., 0., 0.),
-            v(w, 0., 0.),
-            v(w, 0., d),
-            v(0., 0., d),
-            inward(Vec3::Y),
-        ),
+        &MeshData::quad(v(0., 0., 0.), v(w, 0., 0.), v(w, 0., d), v(0., 0., d), inward(Vec3::Y)),
         white,
         id,
     );
     g.add_mesh(
         "ceiling",
-        &MeshData::quad(
-            v(0., h, 0.),
-            v(w, h, 0.),
-            v(w, h, d),
-            v(0., h, d),
-            inward(-Vec3::Y),
-        ),
+        &MeshData::quad(v(0., h, 0.), v(w, h, 0.), v(w, h, d), v(0., h, d), inward(-Vec3::Y)),
         white,
         id,
     );
     g.add_mesh(
         "back wall",
-        &MeshData::quad(
-            v(0., 0., d),
-            v(w, 0., d),
-            v(w, h, d),
-            v(0., h, d),
-            inward(-Vec3::Z),
-        ),
+        &MeshData::quad(v(0., 0., d), v(w, 0., d), v(w, h, d), v(0., h, d), inward(-Vec3::Z)),
         white,
         id,
     );
     g.add_mesh(
         "left wall",
-        &MeshData::quad(
-            v(w, 0., 0.),
-            v(w, 0., d),
-            v(w, h, d),
-            v(w, h, 0.),
-            inward(-Vec3::X),
-        ),
+        &MeshData::quad(v(w, 0., 0.), v(w, 0., d), v(w, h, d), v(w, h, 0.), inward(-Vec3::X)),
         red,
         id,
     );
     g.add_mesh(
         "right wall",
-        &MeshData::quad(
-            v(0., 0., 0.),
-            v(0., 0., d),
-            v(0., h, d),
-            v(0., h, 0.),
-            inward(Vec3::X),
-        ),
+        &MeshData::quad(v(0., 0., 0.), v(0., 0., d), v(0., h, d), v(0., h, 0.), inward(Vec3::X)),
         green,
         id,
     );
     let ly = h - 0.5;
     g.add_mesh(
         "light",
-        &MeshData::quad(
-            v(343., ly, 227.),
-            v(343., ly, 332.),
-            v(213., ly, 332.),
-            v(213., ly, 227.),
-            -Vec3::Y,
-        ),
+        &MeshData::quad(v(343., ly, 227.), v(343., ly, 332.), v(213., ly, 332.), v(213., ly, 227.), -Vec3::Y),
         light,
         id,
     );
-    let short = [
-        v(130., 0., 65.),
-        v(82., 0., 225.),
-        v(240., 0., 272.),
-        v(290., 0., 114.),
-    ];
+    let short = [v(130., 0., 65.), v(82., 0., 225.), v(240., 0., 272.), v(290., 0., 114.)];
     g.add_mesh("short box", &MeshData::prism(short, 1.65), white, id);
-    let tall = [
-        v(423., 0., 247.),
-        v(265., 0., 296.),
-        v(314., 0., 456.),
-        v(472., 0., 406.),
-    ];
+    let tall = [v(423., 0., 247.), v(265., 0., 296.), v(314., 0., 456.), v(472., 0., 406.)];
     g.add_mesh("tall box", &MeshData::prism(tall, 3.30), white, id);
     g.camera("camera", v(278., 273., -800.), v(278., 273., 0.), 39.3);
     g
@@ -133,48 +84,25 @@ pub fn veach_mis() -> GltfBuilder {
     let camera = Vec3::new(0.0, 2.0, 15.0);
     let light_center = Vec3::new(0.0, 2.5, -1.0);
     let radii = [0.0333f32, 0.1, 0.3, 0.9];
-    let colors = [
-        Vec3::new(1.0, 0.9, 0.75),
-        Vec3::new(0.9, 1.0, 0.75),
-        Vec3::new(0.75, 0.9, 1.0),
-        Vec3::new(1.0, 0.75, 0.9),
-    ];
+    let colors =
+        [Vec3::new(1.0, 0.9, 0.75), Vec3::new(0.9, 1.0, 0.75), Vec3::new(0.75, 0.9, 1.0), Vec3::new(1.0, 0.75, 0.9)];
     for (i, (&r, &c)) in radii.iter().zip(&colors).enumerate() {
         let x = -3.75 + 2.5 * i as f32;
         // Equal power: Φ = π · 4πr² · L, so L ∝ 1/r² (L = 1/r² · colour).
         let m = g.material(&MaterialDesc::emitter(&format!("light {i}"), c / (r * r)));
-        g.add_mesh(
-            &format!("light {i}"),
-            &MeshData::sphere(light_center + Vec3::X * x, r, 32, 16),
-            m,
-            Mat4::IDENTITY,
-        );
+        g.add_mesh(&format!("light {i}"), &MeshData::sphere(light_center + Vec3::X * x, r, 32, 16), m, Mat4::IDENTITY);
     }
     // Plates from back (roughest) to front (sharpest), each tilted to mirror the lights' centre
     // towards the camera.
     let roughness = [0.5f32, 0.3, 0.15, 0.05];
-    let centers = [
-        Vec3::new(0.0, -0.6, 1.0),
-        Vec3::new(0.0, -1.45, 2.4),
-        Vec3::new(0.0, -2.15, 3.8),
-        Vec3::new(0.0, -2.7, 5.2),
-    ];
+    let centers =
+        [Vec3::new(0.0, -0.6, 1.0), Vec3::new(0.0, -1.45, 2.4), Vec3::new(0.0, -2.15, 3.8), Vec3::new(0.0, -2.7, 5.2)];
     for (i, (&rough, &c)) in roughness.iter().zip(&centers).enumerate() {
         let n = ((camera - c).normalize() + (light_center - c).normalize()).normalize();
         let along = n.cross(Vec3::X).normalize() * 0.55;
         let across = Vec3::X * 4.0;
-        let quad = MeshData::quad(
-            c - across - along,
-            c + across - along,
-            c + across + along,
-            c - across + along,
-            n,
-        );
-        let m = g.material(&MaterialDesc::metal(
-            &format!("plate {i} (roughness {rough})"),
-            Vec3::splat(0.6),
-            rough,
-        ));
+        let quad = MeshData::quad(c - across - along, c + across - along, c + across + along, c - across + along, n);
+        let m = g.material(&MaterialDesc::metal(&format!("plate {i} (roughness {rough})"), Vec3::splat(0.6), rough));
         g.add_mesh(&format!("plate {i}"), &quad, m, Mat4::IDENTITY);
     }
     let (y0, z0) = (-4.0, -4.0);

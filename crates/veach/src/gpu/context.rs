@@ -34,17 +34,12 @@ impl GpuContext {
         }
         let instance = wgpu::Instance::new(desc);
         let mut adapters = instance.enumerate_adapters(wgpu::Backends::all()).await;
-        let filter = adapter_filter
-            .map(str::to_owned)
-            .or_else(|| std::env::var("VEACH_ADAPTER").ok());
+        let filter = adapter_filter.map(str::to_owned).or_else(|| std::env::var("VEACH_ADAPTER").ok());
         if let Some(f) = &filter {
             let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
             adapters.retain(|a| a.get_info().name.to_lowercase().contains(&f.to_lowercase()));
             if adapters.is_empty() {
-                return Err(Error::Gpu(format!(
-                    "no adapter matches '{f}'; available: {}",
-                    names.join(", ")
-                )));
+                return Err(Error::Gpu(format!("no adapter matches '{f}'; available: {}", names.join(", "))));
             }
         }
         adapters.sort_by_key(|a| preference(&a.get_info()));
@@ -68,19 +63,11 @@ impl GpuContext {
             })
             .await
             .map_err(|e| Error::Gpu(format!("cannot open device on {}: {e}", info.name)))?;
-        Ok(GpuContext {
-            device,
-            queue,
-            adapter_info: info,
-            has_timestamps,
-        })
+        Ok(GpuContext { device, queue, adapter_info: info, has_timestamps })
     }
 
     /// "llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan, Cpu)"
     pub fn describe(&self) -> String {
-        format!(
-            "{} ({:?}, {:?})",
-            self.adapter_info.name, self.adapter_info.backend, self.adapter_info.device_type
-        )
+        format!("{} ({:?}, {:?})", self.adapter_info.name, self.adapter_info.backend, self.adapter_info.device_type)
     }
 }

@@ -56,9 +56,9 @@ pub struct FrameParams {
     pub heuristic: u32,
     pub light_selection: u32,
     pub light_count: u32,
+    pub write_aovs: u32,
     pub _pad0: u32,
     pub _pad1: u32,
-    pub _pad2: u32,
 }
 
 #[repr(C)]
@@ -135,6 +135,20 @@ pub struct EmitterTriangle {
 
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct TestParams {
+    pub routine: u32,
+    pub count: u32,
+    pub seed: u32,
+    pub light_index: u32,
+    pub wo: [f32; 3],
+    pub _pad0: f32,
+    pub point: [f32; 3],
+    pub _pad1: f32,
+    pub material: Material,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct PixelCounters {
     pub rays: u32,
     pub nonfinite: u32,
@@ -155,12 +169,7 @@ pub fn rust_layouts() -> Vec<StructLayout> {
         };
     }
     vec![
-        layout!(Camera {
-            origin,
-            forward,
-            right,
-            up
-        }),
+        layout!(Camera { origin, forward, right, up }),
         layout!(FrameParams {
             camera,
             width,
@@ -175,31 +184,13 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             brdf_samples,
             heuristic,
             light_selection,
-            light_count
+            light_count,
+            write_aovs
         }),
-        layout!(BvhNode {
-            min,
-            first,
-            max,
-            count
-        }),
+        layout!(BvhNode { min, first, max, count }),
         layout!(TriangleVerts { p0, p1, p2 }),
-        layout!(TriangleShading {
-            n0,
-            material,
-            n1,
-            light,
-            n2
-        }),
-        layout!(Material {
-            base_color,
-            metallic,
-            emission,
-            roughness,
-            specular_color,
-            specular,
-            double_sided
-        }),
+        layout!(TriangleShading { n0, material, n1, light, n2 }),
+        layout!(Material { base_color, metallic, emission, roughness, specular_color, specular, double_sided }),
         layout!(Light {
             kind,
             first_tri,
@@ -212,14 +203,8 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             intensity,
             cos_outer
         }),
-        layout!(EmitterTriangle {
-            p0,
-            cdf,
-            e1,
-            area,
-            e2,
-            light
-        }),
+        layout!(EmitterTriangle { p0, cdf, e1, area, e2, light }),
+        layout!(TestParams { routine, count, seed, light_index, wo, point, material }),
         layout!(PixelCounters { rays, nonfinite }),
     ]
 }

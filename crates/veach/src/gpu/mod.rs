@@ -1,5 +1,6 @@
 //! Everything that talks to wgpu: the shared data layout, the device, and the scene's buffers.
 
+pub mod bindings;
 pub mod context;
 pub mod layout;
 pub mod scene_buffers;

@@ -28,32 +28,13 @@ pub fn light_powers(scene: &Scene) -> Vec<f32> {
         .lights
         .iter()
         .map(|l| match &l.kind {
-            LightKind::Area {
-                triangles,
-                radiance,
-                double_sided,
-            } => {
-                let area: f32 = triangles
-                    .iter()
-                    .map(|&t| scene.triangles[t as usize].area())
-                    .sum();
-                std::f32::consts::PI
-                    * area
-                    * luminance(*radiance)
-                    * if *double_sided { 2.0 } else { 1.0 }
+            LightKind::Area { triangles, radiance, double_sided } => {
+                let area: f32 = triangles.iter().map(|&t| scene.triangles[t as usize].area()).sum();
+                std::f32::consts::PI * area * luminance(*radiance) * if *double_sided { 2.0 } else { 1.0 }
             }
-            LightKind::Point { intensity, .. } => {
-                4.0 * std::f32::consts::PI * luminance(*intensity)
-            }
-            LightKind::Spot {
-                intensity,
-                inner_cone,
-                outer_cone,
-                ..
-            } => {
-                2.0 * std::f32::consts::PI
-                    * luminance(*intensity)
-                    * (1.0 - 0.5 * (inner_cone.cos() + outer_cone.cos()))
+            LightKind::Point { intensity, .. } => 4.0 * std::f32::consts::PI * luminance(*intensity),
+            LightKind::Spot { intensity, inner_cone, outer_cone, .. } => {
+                2.0 * std::f32::consts::PI * luminance(*intensity) * (1.0 - 0.5 * (inner_cone.cos() + outer_cone.cos()))
             }
             LightKind::Directional { irradiance, .. } => {
                 std::f32::consts::PI * radius * radius * luminance(*irradiance)
@@ -69,20 +50,13 @@ pub fn build_scene_arrays(scene: &Scene, bvh: &Bvh) -> SceneArrays {
     for (li, light) in scene.lights.iter().enumerate() {
         let mut g = layout::Light::default();
         match &light.kind {
-            LightKind::Area {
-                triangles,
-                radiance,
-                double_sided,
-            } => {
+            LightKind::Area { triangles, radiance, double_sided } => {
                 g.kind = layout::LIGHT_AREA;
                 g.first_tri = emitter_tris.len() as u32;
                 g.tri_count = triangles.len() as u32;
                 g.double_sided = *double_sided as u32;
                 g.intensity = radiance.to_array();
-                let total: f64 = triangles
-                    .iter()
-                    .map(|&t| scene.triangles[t as usize].area() as f64)
-                    .sum();
+                let total: f64 = triangles.iter().map(|&t| scene.triangles[t as usize].area() as f64).sum();
                 g.area = total as f32;
                 let mut running = 0.0f64;
                 for (k, &t) in triangles.iter().enumerate() {
@@ -92,11 +66,7 @@ pub fn build_scene_arrays(scene: &Scene, bvh: &Bvh) -> SceneArrays {
                     emitter_tris.push(layout::EmitterTriangle {
                         p0: tri.p[0].to_array(),
                         // The last entry is exactly 1 so that u < 1 always finds a triangle.
-                        cdf: if k + 1 == triangles.len() {
-                            1.0
-                        } else {
-                            (running / total) as f32
-                        },
+                        cdf: if k + 1 == triangles.len() { 1.0 } else { (running / total) as f32 },
                         e1: (tri.p[1] - tri.p[0]).to_array(),
                         area: tri.area(),
                         e2: (tri.p[2] - tri.p[0]).to_array(),
@@ -104,21 +74,12 @@ pub fn build_scene_arrays(scene: &Scene, bvh: &Bvh) -> SceneArrays {
                     });
                 }
             }
-            LightKind::Point {
-                position,
-                intensity,
-            } => {
+            LightKind::Point { position, intensity } => {
                 g.kind = layout::LIGHT_POINT;
                 g.position = position.to_array();
                 g.intensity = intensity.to_array();
             }
-            LightKind::Spot {
-                position,
-                direction,
-                intensity,
-                inner_cone,
-                outer_cone,
-            } => {
+            LightKind::Spot { position, direction, intensity, inner_cone, outer_cone } => {
                 g.kind = layout::LIGHT_SPOT;
                 g.position = position.to_array();
                 g.direction = direction.to_array();
@@ -126,10 +87,7 @@ pub fn build_scene_arrays(scene: &Scene, bvh: &Bvh) -> SceneArrays {
                 g.cos_inner = inner_cone.cos();
                 g.cos_outer = outer_cone.cos();
             }
-            LightKind::Directional {
-                direction,
-                irradiance,
-            } => {
+            LightKind::Directional { direction, irradiance } => {
                 g.kind = layout::LIGHT_DIRECTIONAL;
                 g.direction = direction.to_array();
                 g.intensity = irradiance.to_array();
@@ -179,10 +137,7 @@ pub fn build_scene_arrays(scene: &Scene, bvh: &Bvh) -> SceneArrays {
     if tri_verts.is_empty() {
         // Placeholder for an empty scene (see `build_bvh`); zero area, so it is never hit.
         tri_verts.push(layout::TriangleVerts::default());
-        tri_shading.push(layout::TriangleShading {
-            light: NO_LIGHT,
-            ..Default::default()
-        });
+        tri_shading.push(layout::TriangleShading { light: NO_LIGHT, ..Default::default() });
     }
 
     let materials = scene

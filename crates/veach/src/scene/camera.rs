@@ -35,13 +35,7 @@ impl Camera {
     pub fn look_at(name: &str, position: Vec3, target: Vec3, up: Vec3, yfov: f32) -> Camera {
         let forward = (target - position).normalize();
         let right = forward.cross(up).normalize();
-        Camera {
-            name: name.into(),
-            position,
-            forward,
-            up: right.cross(forward),
-            yfov,
-        }
+        Camera { name: name.into(), position, forward, up: right.cross(forward), yfov }
     }
 
     /// The GPU camera for an image of `width` × `height` pixels (square pixels).

@@ -9,17 +9,13 @@ use gltf::mesh::Mode;
 use std::path::Path;
 
 pub fn load_gltf(path: &Path) -> Result<Scene> {
-    let bytes =
-        std::fs::read(path).map_err(|e| Error::scene(path, format!("cannot read file: {e}")))?;
+    let bytes = std::fs::read(path).map_err(|e| Error::scene(path, format!("cannot read file: {e}")))?;
     // The gltf crate validates the JSON, and `check_accessor` the byte ranges we read; should a
     // malformed file still reach a panic inside the crate (its validator indexes unchecked in
     // places), report it as a bad file, without the panic message.
     match quiet_catch_unwind(|| load_gltf_bytes(path, &bytes)) {
         Some(result) => result,
-        None => Err(Error::scene(
-            path,
-            "malformed glTF: the glTF reader failed on its contents",
-        )),
+        None => Err(Error::scene(path, "malformed glTF: the glTF reader failed on its contents")),
     }
 }
 
@@ -49,24 +45,16 @@ fn name_the_mesh(bytes: &[u8], message: &str) -> String {
     let Some(start) = message.find("meshes[") else {
         return String::new();
     };
-    let digits: String = message[start + 7..]
-        .chars()
-        .take_while(char::is_ascii_digit)
-        .collect();
+    let digits: String = message[start + 7..].chars().take_while(char::is_ascii_digit).collect();
     let Ok(index) = digits.parse::<usize>() else {
         return String::new();
     };
     let json: Option<serde_json::Value> = if bytes.starts_with(b"glTF") {
-        gltf::binary::Glb::from_slice(bytes)
-            .ok()
-            .and_then(|g| serde_json::from_slice(&g.json).ok())
+        gltf::binary::Glb::from_slice(bytes).ok().and_then(|g| serde_json::from_slice(&g.json).ok())
     } else {
         serde_json::from_slice(bytes).ok()
     };
-    match json
-        .as_ref()
-        .and_then(|j| j["meshes"][index]["name"].as_str())
-    {
+    match json.as_ref().and_then(|j| j["meshes"][index]["name"].as_str()) {
         Some(name) => format!(" (mesh '{name}')"),
         None => String::new(),
     }
@@ -76,15 +64,9 @@ fn load_gltf_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
     let err = |m: String| Error::scene(path, m);
     let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| {
         let message = e.to_string();
-        err(format!(
-            "not a valid glTF file: {message}{}",
-            name_the_mesh(bytes, &message)
-        ))
+        err(format!("not a valid glTF file: {message}{}", name_the_mesh(bytes, &message)))
     })?;
-    let base = path
-        .parent()
-        .filter(|p| !p.as_os_str().is_empty())
-        .unwrap_or(Path::new("."));
+    let base = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
     let buffers = gltf::import_buffers(&gltf.document, Some(base), gltf.blob.clone())
         .map_err(|e| err(format!("cannot load buffers: {e}")))?;
     let doc = &gltf.document;
@@ -97,23 +79,14 @@ fn load_gltf_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
     let default_material = scene.materials.len() as u32;
     scene.materials.push(Material::default());
 
-    let gltf_scene = doc
-        .default_scene()
-        .or_else(|| doc.scenes().next())
-        .ok_or_else(|| err("the file has no scene".into()))?;
-    let mut loader = Loader {
-        path,
-        buffers: &buffers,
-        scene: &mut scene,
-        default_material,
-    };
+    let gltf_scene =
+        doc.default_scene().or_else(|| doc.scenes().next()).ok_or_else(|| err("the file has no scene".into()))?;
+    let mut loader = Loader { path, buffers: &buffers, scene: &mut scene, default_material };
     for node in gltf_scene.nodes() {
         loader.visit(&node, Mat4::IDENTITY, 0)?;
     }
     if doc.textures().next().is_some() {
-        scene
-            .warnings
-            .push("textures are not supported yet and are ignored (factors are used)".into());
+        scene.warnings.push("textures are not supported yet and are ignored (factors are used)".into());
     }
     Ok(scene)
 }
@@ -127,10 +100,7 @@ fn convert_material(m: &gltf::Material) -> Material {
     };
     let strength = m.emissive_strength().unwrap_or(1.0);
     Material {
-        name: m
-            .name()
-            .map(str::to_owned)
-            .unwrap_or_else(|| format!("material {}", m.index().unwrap_or(0))),
+        name: m.name().map(str::to_owned).unwrap_or_else(|| format!("material {}", m.index().unwrap_or(0))),
         base_color: Vec3::new(r, g, b).clamp(Vec3::ZERO, Vec3::ONE),
         metallic: pbr.metallic_factor().clamp(0.0, 1.0),
         roughness: pbr.roughness_factor().clamp(0.0, 1.0),
@@ -159,15 +129,10 @@ impl Loader<'_> {
 
     fn visit(&mut self, node: &gltf::Node, parent: Mat4, depth: usize) -> Result<()> {
         if depth > MAX_NODE_DEPTH {
-            return Err(self.err(format!(
-                "node hierarchy deeper than {MAX_NODE_DEPTH} (a cycle?)"
-            )));
+            return Err(self.err(format!("node hierarchy deeper than {MAX_NODE_DEPTH} (a cycle?)")));
         }
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
-        let node_name = node
-            .name()
-            .map(str::to_owned)
-            .unwrap_or_else(|| format!("node {}", node.index()));
+        let node_name = node.name().map(str::to_owned).unwrap_or_else(|| format!("node {}", node.index()));
         if let Some(mesh) = node.mesh() {
             self.add_mesh(&mesh, world, &node_name)?;
         }
@@ -184,23 +149,16 @@ impl Loader<'_> {
     }
 
     fn add_mesh(&mut self, mesh: &gltf::Mesh, world: Mat4, node_name: &str) -> Result<()> {
-        let mesh_name = mesh
-            .name()
-            .map(str::to_owned)
-            .unwrap_or_else(|| format!("mesh {}", mesh.index()));
+        let mesh_name = mesh.name().map(str::to_owned).unwrap_or_else(|| format!("mesh {}", mesh.index()));
         let normal_matrix = Mat3::from_mat4(world).inverse().transpose();
         // A mirroring transform turns counter-clockwise into clockwise: swap to keep the front.
         let mirrored = Mat3::from_mat4(world).determinant() < 0.0;
         for prim in mesh.primitives() {
-            let what = format!(
-                "mesh '{mesh_name}' (node '{node_name}') primitive {}",
-                prim.index()
-            );
+            let what = format!("mesh '{mesh_name}' (node '{node_name}') primitive {}", prim.index());
             let positions_accessor = prim
                 .get(&gltf::Semantic::Positions)
                 .ok_or_else(|| self.err(format!("{what} has no POSITION attribute")))?;
-            check_accessor(&positions_accessor, self.buffers)
-                .map_err(|m| self.err(format!("{what}: POSITION {m}")))?;
+            check_accessor(&positions_accessor, self.buffers).map_err(|m| self.err(format!("{what}: POSITION {m}")))?;
             let reader = prim.reader(|b| self.buffers.get(b.index()).map(|d| &d.0[..]));
             let positions: Vec<Vec3> = reader
                 .read_positions()
@@ -209,20 +167,15 @@ impl Loader<'_> {
                 .collect();
             let normals: Option<Vec<Vec3>> = match prim.get(&gltf::Semantic::Normals) {
                 Some(acc) => {
-                    check_accessor(&acc, self.buffers)
-                        .map_err(|m| self.err(format!("{what}: NORMAL {m}")))?;
-                    let n: Vec<Vec3> = reader
-                        .read_normals()
-                        .map(|it| it.map(Vec3::from).collect())
-                        .unwrap_or_default();
+                    check_accessor(&acc, self.buffers).map_err(|m| self.err(format!("{what}: NORMAL {m}")))?;
+                    let n: Vec<Vec3> = reader.read_normals().map(|it| it.map(Vec3::from).collect()).unwrap_or_default();
                     (n.len() == positions.len()).then_some(n)
                 }
                 None => None,
             };
             let indices: Vec<u32> = match prim.indices() {
                 Some(acc) => {
-                    check_accessor(&acc, self.buffers)
-                        .map_err(|m| self.err(format!("{what}: indices {m}")))?;
+                    check_accessor(&acc, self.buffers).map_err(|m| self.err(format!("{what}: indices {m}")))?;
                     reader
                         .read_indices()
                         .ok_or_else(|| self.err(format!("{what}: indices cannot be read")))?
@@ -237,14 +190,9 @@ impl Loader<'_> {
                     positions.len()
                 )));
             }
-            let triangles = triangle_list(prim.mode(), &indices)
-                .map_err(|m| self.err(format!("{what}: {m}")))?;
+            let triangles = triangle_list(prim.mode(), &indices).map_err(|m| self.err(format!("{what}: {m}")))?;
 
-            let material = prim
-                .material()
-                .index()
-                .map(|i| i as u32)
-                .unwrap_or(self.default_material);
+            let material = prim.material().index().map(|i| i as u32).unwrap_or(self.default_material);
             let first_triangle = self.scene.triangles.len() as u32;
             for [a, b, c] in triangles {
                 let (b, c) = if mirrored { (c, b) } else { (b, c) };
@@ -270,15 +218,8 @@ impl Loader<'_> {
                     .collect();
                 if !tris.is_empty() {
                     self.scene.lights.push(Light {
-                        name: format!(
-                            "{mesh_name} (node '{node_name}') primitive {}",
-                            prim.index()
-                        ),
-                        kind: LightKind::Area {
-                            triangles: tris,
-                            radiance: m.emission,
-                            double_sided: m.double_sided,
-                        },
+                        name: format!("{mesh_name} (node '{node_name}') primitive {}", prim.index()),
+                        kind: LightKind::Area { triangles: tris, radiance: m.emission, double_sided: m.double_sided },
                     });
                 }
             }
@@ -286,38 +227,21 @@ impl Loader<'_> {
         Ok(())
     }
 
-    fn add_light(
-        &mut self,
-        light: &gltf::khr_lights_punctual::Light,
-        world: Mat4,
-        node_name: &str,
-    ) {
+    fn add_light(&mut self, light: &gltf::khr_lights_punctual::Light, world: Mat4, node_name: &str) {
         use gltf::khr_lights_punctual::Kind;
         let color = Vec3::from(light.color()).max(Vec3::ZERO) * light.intensity().max(0.0);
         let position = world.transform_point3(Vec3::ZERO);
         let direction = world.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z);
-        let name = light
-            .name()
-            .map(str::to_owned)
-            .unwrap_or_else(|| format!("light of node '{node_name}'"));
+        let name = light.name().map(str::to_owned).unwrap_or_else(|| format!("light of node '{node_name}'"));
         if light.range().is_some() {
-            self.scene.warnings.push(format!(
-                "{name}: `range` is ignored; lights fall off with the inverse square law"
-            ));
+            self.scene
+                .warnings
+                .push(format!("{name}: `range` is ignored; lights fall off with the inverse square law"));
         }
         let kind = match light.kind() {
-            Kind::Point => LightKind::Point {
-                position,
-                intensity: color,
-            },
-            Kind::Directional => LightKind::Directional {
-                direction,
-                irradiance: color,
-            },
-            Kind::Spot {
-                inner_cone_angle,
-                outer_cone_angle,
-            } => LightKind::Spot {
+            Kind::Point => LightKind::Point { position, intensity: color },
+            Kind::Directional => LightKind::Directional { direction, irradiance: color },
+            Kind::Spot { inner_cone_angle, outer_cone_angle } => LightKind::Spot {
                 position,
                 direction,
                 intensity: color,
@@ -329,10 +253,7 @@ impl Loader<'_> {
     }
 
     fn add_camera(&mut self, camera: &gltf::Camera, world: Mat4, node_name: &str) {
-        let name = camera
-            .name()
-            .map(str::to_owned)
-            .unwrap_or_else(|| node_name.to_owned());
+        let name = camera.name().map(str::to_owned).unwrap_or_else(|| node_name.to_owned());
         match camera.projection() {
             gltf::camera::Projection::Perspective(p) => {
                 let forward = world.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z);
@@ -347,9 +268,7 @@ impl Loader<'_> {
                 });
             }
             gltf::camera::Projection::Orthographic(_) => {
-                self.scene.warnings.push(format!(
-                    "camera '{name}' is orthographic, which is not supported; skipped"
-                ));
+                self.scene.warnings.push(format!("camera '{name}' is orthographic, which is not supported; skipped"));
             }
         }
     }
@@ -361,42 +280,22 @@ fn triangle_list(mode: Mode, idx: &[u32]) -> std::result::Result<Vec<[u32; 3]>, 
         Mode::Triangles => idx.chunks_exact(3).map(|c| [c[0], c[1], c[2]]).collect(),
         // glTF §3.7.2.1: strip triangle i is (i, i+1, i+2) for even i, (i+1, i, i+2) for odd i.
         Mode::TriangleStrip => (0..idx.len().saturating_sub(2))
-            .map(|i| {
-                if i % 2 == 0 {
-                    [idx[i], idx[i + 1], idx[i + 2]]
-                } else {
-                    [idx[i + 1], idx[i], idx[i + 2]]
-                }
-            })
+            .map(|i| if i % 2 == 0 { [idx[i], idx[i + 1], idx[i + 2]] } else { [idx[i + 1], idx[i], idx[i + 2]] })
             .collect(),
-        Mode::TriangleFan => (1..idx.len().saturating_sub(1))
-            .map(|i| [idx[i], idx[i + 1], idx[0]])
-            .collect(),
+        Mode::TriangleFan => (1..idx.len().saturating_sub(1)).map(|i| [idx[i], idx[i + 1], idx[0]]).collect(),
         other => {
-            return Err(format!(
-                "primitive mode {other:?} is not supported (only triangles are rendered)"
-            ));
+            return Err(format!("primitive mode {other:?} is not supported (only triangles are rendered)"));
         }
     })
 }
 
 /// Checks that an accessor's bytes lie inside its buffer view and buffer, so that reading it
 /// cannot go out of bounds.
-fn check_accessor(
-    acc: &gltf::Accessor,
-    buffers: &[gltf::buffer::Data],
-) -> std::result::Result<(), String> {
+fn check_accessor(acc: &gltf::Accessor, buffers: &[gltf::buffer::Data]) -> std::result::Result<(), String> {
     let Some(view) = acc.view() else {
-        return if acc.sparse().is_some() {
-            Ok(())
-        } else {
-            Err("has no buffer view".into())
-        };
+        return if acc.sparse().is_some() { Ok(()) } else { Err("has no buffer view".into()) };
     };
-    let buffer_len = buffers
-        .get(view.buffer().index())
-        .map(|d| d.0.len())
-        .ok_or("refers to a missing buffer")?;
+    let buffer_len = buffers.get(view.buffer().index()).map(|d| d.0.len()).ok_or("refers to a missing buffer")?;
     if view.offset() + view.length() > buffer_len {
         return Err(format!(
             "buffer view {} (bytes {}..{}) lies outside its buffer of {} bytes",
@@ -413,11 +312,7 @@ fn check_accessor(
     let stride = view.stride().unwrap_or(elem);
     let end = acc.offset() + stride * (acc.count() - 1) + elem;
     if end > view.length() {
-        return Err(format!(
-            "accessor {} needs {end} bytes but its buffer view has {}",
-            acc.index(),
-            view.length()
-        ));
+        return Err(format!("accessor {} needs {end} bytes but its buffer view has {}", acc.index(), view.length()));
     }
     Ok(())
 }

@@ -20,15 +20,11 @@ pub struct Triangle {
 
 impl Triangle {
     pub fn area(&self) -> f32 {
-        0.5 * (self.p[1] - self.p[0])
-            .cross(self.p[2] - self.p[0])
-            .length()
+        0.5 * (self.p[1] - self.p[0]).cross(self.p[2] - self.p[0]).length()
     }
 
     pub fn geometric_normal(&self) -> Vec3 {
-        (self.p[1] - self.p[0])
-            .cross(self.p[2] - self.p[0])
-            .normalize_or_zero()
+        (self.p[1] - self.p[0]).cross(self.p[2] - self.p[0]).normalize_or_zero()
     }
 }
 
@@ -71,21 +67,11 @@ impl Material {
 #[derive(Clone, Debug)]
 pub enum LightKind {
     /// The emissive triangles of one mesh primitive instance; radiance comes from the material.
-    Area {
-        triangles: Vec<u32>,
-        radiance: Vec3,
-        double_sided: bool,
-    },
+    Area { triangles: Vec<u32>, radiance: Vec3, double_sided: bool },
     /// Radiant intensity in W/sr.
     Point { position: Vec3, intensity: Vec3 },
     /// Radiant intensity on the axis, cone half-angles in radians.
-    Spot {
-        position: Vec3,
-        direction: Vec3,
-        intensity: Vec3,
-        inner_cone: f32,
-        outer_cone: f32,
-    },
+    Spot { position: Vec3, direction: Vec3, intensity: Vec3, inner_cone: f32, outer_cone: f32 },
     /// Irradiance in W/m² on a surface facing the light; `direction` is where light travels.
     Directional { direction: Vec3, irradiance: Vec3 },
 }
@@ -144,10 +130,7 @@ impl Scene {
             }
         }
         if min.x > max.x {
-            return Bounds {
-                min: Vec3::splat(-1.0),
-                max: Vec3::splat(1.0),
-            };
+            return Bounds { min: Vec3::splat(-1.0), max: Vec3::splat(1.0) };
         }
         Bounds { min, max }
     }
@@ -169,28 +152,15 @@ impl Scene {
     /// The camera named `name`, or the first one, or one framing the scene's bounds.
     pub fn camera(&self, name: Option<&str>) -> Result<Camera, String> {
         match name {
-            Some(n) => self
-                .cameras
-                .iter()
-                .find(|c| c.name == n)
-                .cloned()
-                .ok_or_else(|| {
-                    let names: Vec<_> = self
-                        .cameras
-                        .iter()
-                        .map(|c| format!("'{}'", c.name))
-                        .collect();
-                    if names.is_empty() {
-                        format!("no camera named '{n}': the scene has no perspective cameras")
-                    } else {
-                        format!("no camera named '{n}'; the scene has {}", names.join(", "))
-                    }
-                }),
-            None => Ok(self
-                .cameras
-                .first()
-                .cloned()
-                .unwrap_or_else(|| Camera::framing(&self.bounds()))),
+            Some(n) => self.cameras.iter().find(|c| c.name == n).cloned().ok_or_else(|| {
+                let names: Vec<_> = self.cameras.iter().map(|c| format!("'{}'", c.name)).collect();
+                if names.is_empty() {
+                    format!("no camera named '{n}': the scene has no perspective cameras")
+                } else {
+                    format!("no camera named '{n}'; the scene has {}", names.join(", "))
+                }
+            }),
+            None => Ok(self.cameras.first().cloned().unwrap_or_else(|| Camera::framing(&self.bounds()))),
         }
     }
 }

@@ -1,0 +1,78 @@
+//! The bind group layout of the kernels, written out binding by binding as in
+//! `shaders/layout.wgsl` (group 0) and `shaders/test_kernels.wgsl` (bindings 20–22).
+
+/// Binding of `frame` (uniform FrameParams).
+pub const FRAME: u32 = 0;
+/// Bindings 1..=7: the scene (bvh_nodes … light_power_cdf), read-only storage.
+pub const SCENE_FIRST: u32 = 1;
+pub const SCENE_COUNT: u32 = 7;
+/// Bindings 8..=12: accum, accum_sq, counters, aov_light, aov_brdf (read-write storage).
+pub const OUTPUT_FIRST: u32 = 8;
+pub const OUTPUT_COUNT: u32 = 5;
+/// Test kernels only: params (uniform), input (read-only storage), output (read-write).
+pub const TEST_PARAMS: u32 = 20;
+pub const TEST_INPUT: u32 = 21;
+pub const TEST_OUTPUT: u32 = 22;
+
+fn entry(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Buffer { ty, has_dynamic_offset: false, min_binding_size: None },
+        count: None,
+    }
+}
+
+fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
+    entry(binding, wgpu::BufferBindingType::Storage { read_only })
+}
+
+/// Layout entries of the render kernel; `with_test_io` adds the test kernels' bindings.
+pub fn layout_entries(with_test_io: bool) -> Vec<wgpu::BindGroupLayoutEntry> {
+    let mut entries = vec![entry(FRAME, wgpu::BufferBindingType::Uniform)];
+    entries.extend((SCENE_FIRST..SCENE_FIRST + SCENE_COUNT).map(|b| storage(b, true)));
+    entries.extend((OUTPUT_FIRST..OUTPUT_FIRST + OUTPUT_COUNT).map(|b| storage(b, false)));
+    if with_test_io {
+        entries.push(entry(TEST_PARAMS, wgpu::BufferBindingType::Uniform));
+        entries.push(storage(TEST_INPUT, true));
+        entries.push(storage(TEST_OUTPUT, false));
+    }
+    entries
+}
+
+/// A compute pipeline for `entry_point` of `source`, with the explicit layout above.
+/// Validation errors are returned, not raised as device errors.
+pub fn create_pipeline(
+    device: &wgpu::Device,
+    label: &str,
+    source: String,
+    entry_point: &str,
+    with_test_io: bool,
+) -> Result<(wgpu::ComputePipeline, wgpu::BindGroupLayout), String> {
+    let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
+    let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+        label: Some(label),
+        entries: &layout_entries(with_test_io),
+    });
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label: Some(label),
+        bind_group_layouts: &[Some(&bind_group_layout)],
+        immediate_size: 0,
+    });
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some(label),
+        source: wgpu::ShaderSource::Wgsl(source.into()),
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some(label),
+        layout: Some(&pipeline_layout),
+        module: &module,
+        entry_point: Some(entry_point),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    if let Some(e) = pollster::block_on(scope.pop()) {
+        return Err(format!("{label}: kernel creation failed: {e}"));
+    }
+    Ok((pipeline, bind_group_layout))
+}
