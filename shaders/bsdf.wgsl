@@ -37,10 +37,13 @@ fn pow5(x: f32) -> f32 {
     return x2 * x2 * x;
 }
 
-// GGX / Trowbridge-Reitz normal distribution. Appendix B.3.2, "Microfacet Distribution".
-fn ggx_d(n_dot_h: f32, alpha: f32) -> f32 {
+// GGX / Trowbridge-Reitz normal distribution of the unit half vector h (local frame).
+// Appendix B.3.2, "Microfacet Distribution": D = α² / (π ((N·H)²(α² − 1) + 1)²). For unit h,
+// (N·H)²(α² − 1) + 1 = |h_xy|² + h_z² α²; this form keeps its precision for tiny α, where
+// 1 − (N·H)² cancels catastrophically in f32.
+fn ggx_d(h: vec3f, alpha: f32) -> f32 {
     let a2 = alpha * alpha;
-    let d = n_dot_h * n_dot_h * (a2 - 1.0) + 1.0;
+    let d = dot(h.xy, h.xy) + h.z * h.z * a2;
     return a2 / (PI * d * d);
 }
 
@@ -80,7 +83,7 @@ fn bsdf_eval(p: BsdfParams, wo: vec3f, wi: vec3f) -> vec3f {
     }
     let h = normalize(wo + wi);
     let v_dot_h = dot(wo, h);
-    let specular_brdf = ggx_d(h.z, p.alpha) * smith_v_height_correlated(n_dot_l, n_dot_v, p.alpha);
+    let specular_brdf = ggx_d(h, p.alpha) * smith_v_height_correlated(n_dot_l, n_dot_v, p.alpha);
     let diffuse_brdf = p.base_color * INV_PI;
     // fresnel_mix (Appendix B.3.4, weighted as in KHR_materials_specular).
     let fr = dielectric_fresnel(p, v_dot_h);
@@ -106,7 +109,7 @@ fn ggx_vndf_pdf(wo: vec3f, wi: vec3f, alpha: f32) -> f32 {
         return 0.0;
     }
     let h = normalize(wo + wi);
-    return smith_g1(wo.z, alpha) * ggx_d(h.z, alpha) / (4.0 * wo.z);
+    return smith_g1(wo.z, alpha) * ggx_d(h, alpha) / (4.0 * wo.z);
 }
 
 // Heitz 2018, Listing 1 (isotropic alpha): a microfacet normal from the visible normals.

@@ -230,11 +230,11 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
     var sum = accum[pixel];
     var sum_sq = accum_sq[pixel];
     var count = counters[pixel];
-    var sum_light = vec3f(0.0);
-    var sum_brdf = vec3f(0.0);
+    var sum_light = vec4f(0.0);
+    var sum_brdf = vec4f(0.0);
     if frame.write_aovs != 0u {
-        sum_light = aov_light[pixel].xyz;
-        sum_brdf = aov_brdf[pixel].xyz;
+        sum_light = aov_light[pixel];
+        sum_brdf = aov_brdf[pixel];
     }
     for (var k = 0u; k < frame.sample_count; k++) {
         var rng = rng_seed(pixel, frame.sample_start + k, frame.seed);
@@ -247,8 +247,9 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
         if is_finite3(l) && is_finite3(l * l) {
             sum += vec4f(l, 1.0);
             sum_sq += vec4f(l * l, 0.0);
-            sum_light += e.light;
-            sum_brdf += e.emitted + e.brdf;
+            sum_light += vec4f(e.light, 0.0);
+            // w: luminance of the emission part, so that the two sampled parts can be told apart.
+            sum_brdf += vec4f(e.emitted + e.brdf, luminance(e.emitted));
         } else {
             sum.w += 1.0;
             count.nonfinite += 1u;
@@ -258,7 +259,7 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
     accum_sq[pixel] = sum_sq;
     counters[pixel] = count;
     if frame.write_aovs != 0u {
-        aov_light[pixel] = vec4f(sum_light, 0.0);
-        aov_brdf[pixel] = vec4f(sum_brdf, 0.0);
+        aov_light[pixel] = sum_light;
+        aov_brdf[pixel] = sum_brdf;
     }
 }

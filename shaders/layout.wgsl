@@ -165,6 +165,7 @@ struct PixelCounters {
 @group(0) @binding(9) var<storage, read_write> accum_sq: array<vec4f>;
 @group(0) @binding(10) var<storage, read_write> counters: array<PixelCounters>;
 // Contribution images: sums of the (MIS-weighted) light-sample and BRDF-sample estimates, so
-// that aov_light + aov_brdf = accum. Directly seen emission counts with the BRDF image.
+// that aov_light + aov_brdf = accum. Directly seen emission counts with the BRDF image;
+// aov_brdf.w sums its luminance.
 @group(0) @binding(11) var<storage, read_write> aov_light: array<vec4f>;
 @group(0) @binding(12) var<storage, read_write> aov_brdf: array<vec4f>;

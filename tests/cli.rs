@@ -90,6 +90,39 @@ fn a_bad_scene_is_a_clear_error_and_leaves_the_old_output_alone() {
 }
 
 #[test]
+fn contribution_images_are_written_next_to_the_output() {
+    let dir = out_dir();
+    let out = dir.join("mis.exr");
+    let o = veach(&[
+        "render",
+        &assets("veach-mis.gltf"),
+        "-o",
+        out.to_str().unwrap(),
+        "--width",
+        "24",
+        "--height",
+        "16",
+        "--light-samples",
+        "1",
+        "--brdf-samples",
+        "1",
+        "--aov",
+        "light,brdf,weights",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (_, _, image) = veach::image_io::read_image(&out).unwrap();
+    let (_, _, light) = veach::image_io::read_image(&dir.join("mis.light.exr")).unwrap();
+    let (_, _, brdf) = veach::image_io::read_image(&dir.join("mis.brdf.exr")).unwrap();
+    let (w, h, _) = veach::image_io::read_image(&dir.join("mis.weights.png")).unwrap();
+    assert_eq!((w, h), (24, 16));
+    for ((i, l), b) in image.iter().zip(&light).zip(&brdf) {
+        for c in 0..3 {
+            assert!((l[c] + b[c] - i[c]).abs() <= 1e-4 * i[c].max(1e-3));
+        }
+    }
+}
+
+#[test]
 fn help_explains_the_sample_counts() {
     let o = veach(&["render", "--help"]);
     assert!(o.status.success());

@@ -125,3 +125,37 @@ fn empty_and_unlit_scenes_render_black() {
         assert!(out.mean().iter().all(|p| *p == [0.0; 3]), "{strategy:?}");
     }
 }
+
+/// The light-sample and BRDF-sample contribution images add up to the image; without MIS the
+/// light strategy puts everything but emission in the light image.
+#[test]
+fn contribution_images_add_up_to_the_image() {
+    let scene = shipped_scene("veach-mis");
+    let camera = scene.camera(None).unwrap();
+    let gpu_scene = upload(&scene);
+    for strategy in [Strategy::Mis, Strategy::Light, Strategy::Brdf] {
+        let settings = RenderSettings { write_aovs: true, ..small(strategy, 3) };
+        let out = render(&gpu_scene, &settings, &camera);
+        let (light, brdf, emitted) = out.contribution_means_with_emission().unwrap();
+        let mut light_total = 0.0;
+        for (i, m) in out.mean().iter().enumerate() {
+            for c in 0..3 {
+                let sum = light[i][c] + brdf[i][c];
+                assert!((sum - m[c]).abs() <= 1e-4 * m[c].abs().max(1e-3), "{strategy:?} pixel {i}: {sum} vs {}", m[c]);
+            }
+            light_total += light[i][0];
+            if strategy == Strategy::Light {
+                let b = 0.2126 * brdf[i][0] + 0.7152 * brdf[i][1] + 0.0722 * brdf[i][2];
+                assert!(
+                    (b - emitted[i]).abs() <= 1e-4 * b.max(1e-3),
+                    "light strategy: BRDF image is not emission only"
+                );
+            }
+        }
+        if strategy == Strategy::Brdf {
+            assert_eq!(light_total, 0.0);
+        } else {
+            assert!(light_total > 0.0);
+        }
+    }
+}

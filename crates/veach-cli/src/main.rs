@@ -52,6 +52,13 @@ enum StrategyArg {
     Mis,
 }
 
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum AovArg {
+    Light,
+    Brdf,
+    Weights,
+}
+
 #[derive(Clone, Copy, ValueEnum)]
 enum HeuristicArg {
     Balance,
@@ -120,6 +127,12 @@ struct RenderArgs {
     /// Exposure in stops for PNG output
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     exposure: f32,
+    /// Contribution images of the MIS estimate, written next to OUT: `light` and `brdf`
+    /// (OUT.light.EXT, OUT.brdf.EXT: the light-sample and BRDF-sample parts, which add up to
+    /// the image) and `weights` (OUT.weights.png: false colour of the share light samples carry,
+    /// blue = BRDF samples, red = light samples)
+    #[arg(long, value_delimiter = ',', value_name = "light,brdf,weights")]
+    aov: Vec<AovArg>,
     /// Write render statistics as JSON
     #[arg(long, value_name = "FILE.json")]
     stats: Option<PathBuf>,
@@ -221,6 +234,7 @@ fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
         },
         seed: args.seed,
         time_limit,
+        write_aovs: !args.aov.is_empty(),
         ..Default::default()
     })
 }
@@ -246,6 +260,13 @@ fn render(args: RenderArgs) -> Result<()> {
         say(format!(
             "warning: {}: the scene has no lights; only emitters seen directly would show",
             args.scene.display()
+        ));
+    }
+    if !args.aov.is_empty() && settings.strategy != Strategy::Mis {
+        say(format!(
+            "note: contribution images split the {} estimate into light-sample and BRDF-sample parts; \
+             they show MIS weighting only with --strategy mis",
+            settings.strategy.name()
         ));
     }
     if !settings.strategy.samples_lights() && scene.has_delta_lights() {
@@ -289,6 +310,29 @@ fn render(args: RenderArgs) -> Result<()> {
     }
 
     veach::image_io::write_image(&args.output, out.width, out.height, &out.mean(), args.exposure)?;
+    if let Some((light, brdf, emitted)) = out.contribution_means_with_emission() {
+        let ext = args.output.extension().and_then(|e| e.to_str()).unwrap_or("exr");
+        let sibling = |name: &str, ext: &str| args.output.with_extension(format!("{name}.{ext}"));
+        let mut written = Vec::new();
+        if args.aov.contains(&AovArg::Light) {
+            let path = sibling("light", ext);
+            veach::image_io::write_image(&path, out.width, out.height, &light, args.exposure)?;
+            written.push(path);
+        }
+        if args.aov.contains(&AovArg::Brdf) {
+            let path = sibling("brdf", ext);
+            veach::image_io::write_image(&path, out.width, out.height, &brdf, args.exposure)?;
+            written.push(path);
+        }
+        if args.aov.contains(&AovArg::Weights) {
+            let path = sibling("weights", "png");
+            let colours = veach::image_io::light_share_false_colour(&light, &brdf, &emitted);
+            veach::image_io::write_image(&path, out.width, out.height, &colours, 0.0)?;
+            written.push(path);
+        }
+        let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
+        say(format!("contribution images: {}", names.join(", ")));
+    }
     let render_s = out.render_time.as_secs_f64();
     say(format!(
         "{}: {}x{}, {:.1} spp ({} {}+{}), render {:.3} s, {:.2} Mrays/s{}",

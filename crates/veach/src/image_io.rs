@@ -33,6 +33,37 @@ pub fn linear_to_srgb(v: f32) -> f32 {
     if v <= 0.0031308 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 }
 }
 
+/// Inverse of `linear_to_srgb`.
+pub fn srgb_to_linear(v: f32) -> f32 {
+    if v <= 0.04045 { v / 12.92 } else { ((v + 0.055) / 1.055).powf(2.4) }
+}
+
+/// False colour of the share of the direct-lighting estimate carried by light samples, per
+/// pixel: blue where BRDF samples carry it (share 0), white at half, red where light samples do
+/// (share 1), black where both are zero. `emitted` (luminance of directly seen emission, part of
+/// the BRDF image) is left out of the share. A diverging map (Moreland, "Diverging Color Maps
+/// for Scientific Visualization", 2009, end points), returned as linear RGB.
+pub fn light_share_false_colour(light: &[[f32; 3]], brdf: &[[f32; 3]], emitted: &[f32]) -> Vec<[f32; 3]> {
+    let lum = |c: &[f32; 3]| 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2];
+    let (blue, white, red) = ([0.230, 0.299, 0.754], [0.865, 0.865, 0.865], [0.706, 0.016, 0.150]);
+    light
+        .iter()
+        .zip(brdf)
+        .zip(emitted)
+        .map(|((l, b), e)| {
+            let (a, c) = (lum(l).max(0.0), (lum(b) - e).max(0.0));
+            // Below rounding of the emission: nothing was sampled.
+            let c = if c <= 1e-6 * e { 0.0 } else { c };
+            if !(a + c > 0.0) {
+                return [0.0; 3];
+            }
+            let t = a / (a + c);
+            let (from, to, u) = if t < 0.5 { (blue, white, 2.0 * t) } else { (white, red, 2.0 * t - 1.0) };
+            std::array::from_fn(|k| srgb_to_linear(from[k] + (to[k] - from[k]) * u))
+        })
+        .collect()
+}
+
 /// Writes linear RGB pixels (row-major, top row first). `exposure` is in stops and applies to
 /// PNG only; float formats keep the radiance values as they are.
 pub fn write_image(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]], exposure: f32) -> Result<()> {

@@ -112,6 +112,14 @@ pub struct Progress {
     pub elapsed: Duration,
 }
 
+/// Per-pixel sums of the MIS-weighted light-sample contributions and of the BRDF-sample
+/// contributions (with emission seen directly); per pixel their rgb add up to
+/// `RenderOutput::sum`. `brdf[i][3]` sums the luminance of the emission part.
+pub struct Contributions {
+    pub light: Vec<[f32; 4]>,
+    pub brdf: Vec<[f32; 4]>,
+}
+
 /// The accumulated image and what it cost.
 pub struct RenderOutput {
     pub width: u32,
@@ -120,7 +128,7 @@ pub struct RenderOutput {
     pub sum: Vec<[f32; 4]>,
     pub sum_sq: Vec<[f32; 4]>,
     /// Sums of the light-sample and BRDF-sample contributions (with `write_aovs`).
-    pub aovs: Option<(Vec<[f32; 4]>, Vec<[f32; 4]>)>,
+    pub contributions: Option<Contributions>,
     pub rays: u64,
     pub nonfinite_samples: u64,
     pub render_time: Duration,
@@ -160,6 +168,27 @@ impl RenderOutput {
                 })
             })
             .collect()
+    }
+
+    /// Mean light-sample and BRDF-sample images (see `Contributions`).
+    pub fn contribution_means(&self) -> Option<(Vec<[f32; 3]>, Vec<[f32; 3]>)> {
+        self.contribution_means_with_emission().map(|(l, b, _)| (l, b))
+    }
+
+    /// As `contribution_means`, plus the mean luminance of the emission in the BRDF image.
+    pub fn contribution_means_with_emission(&self) -> Option<(Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<f32>)> {
+        let c = self.contributions.as_ref()?;
+        let mean = |sums: &[[f32; 4]]| -> Vec<[f32; 3]> {
+            sums.iter()
+                .zip(&self.sum)
+                .map(|(v, s)| {
+                    let n = s[3].max(1.0);
+                    [v[0] / n, v[1] / n, v[2] / n].map(|x| if x.is_finite() { x } else { 0.0 })
+                })
+                .collect()
+        };
+        let emitted = c.brdf.iter().zip(&self.sum).map(|(v, s)| v[3] / s[3].max(1.0)).collect();
+        Some((mean(&c.light), mean(&c.brdf), emitted))
     }
 
     pub fn min_samples(&self) -> u32 {
@@ -300,7 +329,11 @@ impl Renderer {
         for (binding, b) in test_io {
             entries.push(wgpu::BindGroupEntry { binding: *binding, resource: b.as_entire_binding() });
         }
-        self.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("veach"), layout, entries: &entries })
+        self.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("veach"),
+            layout,
+            entries: &entries,
+        })
     }
 
     pub(crate) fn frame_params(&self, light_count: u32, s: &RenderSettings, camera: &Camera) -> FrameParams {
@@ -454,8 +487,11 @@ impl Renderer {
         let sum: Vec<[f32; 4]> = read_buffer(device, queue, &accum)?;
         let sum_sq: Vec<[f32; 4]> = read_buffer(device, queue, &accum_sq)?;
         let counts: Vec<PixelCounters> = read_buffer(device, queue, &counters)?;
-        let aovs = if settings.write_aovs {
-            Some((read_buffer(device, queue, &aov_light)?, read_buffer(device, queue, &aov_brdf)?))
+        let contributions = if settings.write_aovs {
+            Some(Contributions {
+                light: read_buffer(device, queue, &aov_light)?,
+                brdf: read_buffer(device, queue, &aov_brdf)?,
+            })
         } else {
             None
         };
@@ -464,7 +500,7 @@ impl Renderer {
             height: h,
             sum,
             sum_sq,
-            aovs,
+            contributions,
             rays: counts.iter().map(|c| c.rays as u64).sum(),
             nonfinite_samples: counts.iter().map(|c| c.nonfinite as u64).sum(),
             render_time,
@@ -475,7 +511,11 @@ impl Renderer {
 }
 
 /// Copies a GPU buffer back to the host.
-pub(crate) fn read_buffer<T: bytemuck::Pod>(device: &wgpu::Device, queue: &wgpu::Queue, src: &wgpu::Buffer) -> Result<Vec<T>> {
+pub(crate) fn read_buffer<T: bytemuck::Pod>(
+    device: &wgpu::Device,
+    queue: &wgpu::Queue,
+    src: &wgpu::Buffer,
+) -> Result<Vec<T>> {
     let staging = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("readback"),
         size: src.size(),

@@ -13,6 +13,16 @@ pub const SHADER_FILES: &[(&str, &str)] = &[
     ("integrator.wgsl", include_str!("../../../shaders/integrator.wgsl")),
 ];
 
+/// The test kernels, joined after the render kernel's files.
+pub const TEST_KERNELS: (&str, &str) = ("test_kernels.wgsl", include_str!("../../../shaders/test_kernels.wgsl"));
+pub const TEST_ENTRY_POINT: &str = "run_test";
+
+/// The render kernel's source followed by the test kernels (see `gpu::test_kernel`).
+pub fn test_kernel_source() -> String {
+    let (name, text) = TEST_KERNELS;
+    format!("{}// ---- shaders/{name} ----\n{text}\n", render_kernel_source())
+}
+
 /// Name of the compute entry point in `integrator.wgsl`.
 pub const RENDER_ENTRY_POINT: &str = "render";
 
@@ -49,6 +59,12 @@ mod tests {
             module.entry_points.iter().any(|e| e.name == RENDER_ENTRY_POINT && e.stage == naga::ShaderStage::Compute),
             "no compute entry point `{RENDER_ENTRY_POINT}`"
         );
+    }
+
+    #[test]
+    fn test_kernels_validate_with_naga() {
+        let source = test_kernel_source();
+        validate_wgsl(&source).unwrap_or_else(|e| panic!("WGSL invalid:\n{e}"));
     }
 
     #[test]

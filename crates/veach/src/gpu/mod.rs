@@ -4,3 +4,4 @@ pub mod bindings;
 pub mod context;
 pub mod layout;
 pub mod scene_buffers;
+pub mod test_kernel;

@@ -1,0 +1,113 @@
+//! Runs `shaders/test_kernels.wgsl`: the renderer's own WGSL sampling routines on inputs a test
+//! chooses, so that statistical tests check the code that renders rather than a copy of it.
+
+use super::bindings;
+use super::layout::{FrameParams, TestParams};
+use crate::error::{Error, Result};
+use crate::render::{GpuScene, Renderer, read_buffer};
+use crate::shaders;
+use wgpu::util::DeviceExt;
+
+/// Routine codes of `test_kernels.wgsl`.
+pub mod routine {
+    pub const SAMPLE_UNIFORM: u32 = 0;
+    pub const SAMPLE_COSINE: u32 = 1;
+    pub const SAMPLE_GGX_VNDF: u32 = 2;
+    pub const SAMPLE_BSDF: u32 = 3;
+    pub const SAMPLE_LIGHT: u32 = 4;
+    pub const SELECT_LIGHT: u32 = 5;
+    pub const PDF_UNIFORM: u32 = 10;
+    pub const PDF_COSINE: u32 = 11;
+    pub const PDF_GGX_VNDF: u32 = 12;
+    pub const PDF_BSDF: u32 = 13;
+    pub const PDF_LIGHT: u32 = 14;
+    pub const EVAL_BSDF: u32 = 20;
+    pub const MIS_WEIGHTS: u32 = 21;
+}
+
+pub struct TestKernel<'a> {
+    renderer: &'a Renderer,
+    pipeline: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+}
+
+const WORKGROUP: u32 = 64;
+
+impl<'a> TestKernel<'a> {
+    pub fn new(renderer: &'a Renderer) -> Result<Self> {
+        let (pipeline, layout) = bindings::create_pipeline(
+            &renderer.gpu.device,
+            "veach test kernels",
+            shaders::test_kernel_source(),
+            shaders::TEST_ENTRY_POINT,
+            true,
+        )
+        .map_err(Error::Gpu)?;
+        Ok(TestKernel { renderer, pipeline, layout })
+    }
+
+    /// Runs `params.routine` over `params.count` items; returns `outputs_per_item` vec4s per item.
+    pub fn run(
+        &self,
+        scene: &GpuScene,
+        frame: &FrameParams,
+        params: &TestParams,
+        input: &[[f32; 4]],
+        outputs_per_item: usize,
+    ) -> Result<Vec<[f32; 4]>> {
+        let device = &self.renderer.gpu.device;
+        let queue = &self.renderer.gpu.queue;
+        let uniform = |label: &str, bytes: &[u8]| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                label: Some(label),
+                contents: bytes,
+                usage: wgpu::BufferUsages::UNIFORM,
+            })
+        };
+        let storage = |label: &str, bytes: u64, usage: wgpu::BufferUsages| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes.max(16),
+                usage: wgpu::BufferUsages::STORAGE | usage,
+                mapped_at_creation: false,
+            })
+        };
+        let frame_buffer = uniform("test frame", bytemuck::bytes_of(frame));
+        let params_buffer = uniform("test params", bytemuck::bytes_of(params));
+        let input_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label: Some("test input"),
+            contents: if input.is_empty() { &[0u8; 16] } else { bytemuck::cast_slice(input) },
+            usage: wgpu::BufferUsages::STORAGE,
+        });
+        let out_bytes = params.count as u64 * outputs_per_item as u64 * 16;
+        let output = storage("test output", out_bytes, wgpu::BufferUsages::COPY_SRC);
+        let unused: Vec<wgpu::Buffer> =
+            (0..bindings::OUTPUT_COUNT).map(|_| storage("unused", 16, wgpu::BufferUsages::empty())).collect();
+        let outputs = [&unused[0], &unused[1], &unused[2], &unused[3], &unused[4]];
+        let bind_group = self.renderer.bind_group(
+            &self.layout,
+            &frame_buffer,
+            scene,
+            &outputs,
+            &[
+                (bindings::TEST_PARAMS, &params_buffer),
+                (bindings::TEST_INPUT, &input_buffer),
+                (bindings::TEST_OUTPUT, &output),
+            ],
+        );
+        let groups = params.count.div_ceil(WORKGROUP);
+        let max = device.limits().max_compute_workgroups_per_dimension;
+        let (gx, gy) = if groups <= max { (groups, 1) } else { (max, groups.div_ceil(max)) };
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&Default::default());
+            pass.set_pipeline(&self.pipeline);
+            pass.set_bind_group(0, &bind_group, &[]);
+            pass.dispatch_workgroups(gx, gy, 1);
+        }
+        queue.submit([encoder.finish()]);
+        let mut out: Vec<[f32; 4]> = read_buffer(device, queue, &output)?;
+        out.truncate(params.count as usize * outputs_per_item);
+        Ok(out)
+    }
+}

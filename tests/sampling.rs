@@ -1,0 +1,691 @@
+//! Statistical tests of the WGSL sampling routines, run through `shaders/test_kernels.wgsl` on
+//! the GPU (the code that renders, not a Rust copy):
+//! - chi-square goodness of fit of sampled directions against the pdf function, for uniform and
+//!   cosine hemisphere sampling, GGX visible-normal sampling, the full glTF BRDF mixture,
+//!   area-light sampling of a triangle seen from a point, and light selection;
+//! - the pdf a sampler returns equals the pdf function at the same direction, and the pdf
+//!   integrates to the fraction of valid samples;
+//! - white furnace, non-negative finite BRDF values, and the MIS weights.
+//!
+//! Chi-square: Pearson's test with bins of low expected count (< 5) pooled, as Mitsuba 3's
+//! `chi2` test does, at significance 1% with a Bonferroni correction over all cases of a test.
+//! A failing case writes its observed and expected histograms (CSV and PNG) under
+//! target/tmp/veach-tests/chi2/.
+
+mod common;
+
+use common::*;
+use glam::{DVec3, Vec3};
+use std::f64::consts::PI;
+use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
+use veach::gpu::layout::{self, FrameParams, TestParams};
+use veach::gpu::test_kernel::{TestKernel, routine};
+use veach::render::GpuScene;
+
+const SAMPLES: u32 = 1 << 20;
+/// Histogram resolution: bins in the (compressed) polar angle and in azimuth.
+const BINS_THETA: usize = 20;
+const BINS_PHI: usize = 40;
+/// Midpoint sub-cells per bin side when integrating the pdf over a bin; in bins where the pdf
+/// varies by more than 50%; and in bins where it jumps (the horizon, a triangle's edge), where
+/// the midpoint rule's error is proportional to the sub-cell size.
+const SUB: usize = 8;
+const SUB_FINE: usize = 48;
+const SUB_JUMP: usize = 192;
+
+fn kernel() -> &'static TestKernel<'static> {
+    static K: std::sync::OnceLock<TestKernel<'static>> = std::sync::OnceLock::new();
+    K.get_or_init(|| TestKernel::new(renderer()).unwrap_or_else(|e| panic!("{e}")))
+}
+
+fn empty_scene() -> &'static GpuScene {
+    static S: std::sync::OnceLock<GpuScene> = std::sync::OnceLock::new();
+    S.get_or_init(|| upload(&veach::Scene::default()))
+}
+
+fn frame(scene_lights: u32, selection: u32, heuristic: u32) -> FrameParams {
+    FrameParams { light_count: scene_lights, light_selection: selection, heuristic, ..Default::default() }
+}
+
+fn material(base: Vec3, metallic: f32, roughness: f32) -> layout::Material {
+    layout::Material {
+        base_color: base.to_array(),
+        metallic,
+        roughness,
+        specular: 1.0,
+        specular_color: [1.0; 3],
+        ..Default::default()
+    }
+}
+
+fn wo_at(theta_degrees: f64) -> Vec3 {
+    let t = theta_degrees.to_radians();
+    Vec3::new(t.sin() as f32, 0.0, t.cos() as f32)
+}
+
+/// Directions parameterised around a centre c: polar angle θ' from c, mapped logarithmically as
+/// s = ln(1 + θ'/σ) / ln(1 + π/σ) ∈ [0, 1], so that a lobe of angular width ~σ and a broad lobe
+/// around it both spread over several bins; azimuth φ'.
+struct SphereBins {
+    t: DVec3,
+    b: DVec3,
+    n: DVec3,
+    sigma: f64,
+}
+
+impl SphereBins {
+    fn new(center: DVec3, sigma: f64) -> Self {
+        let n = center.normalize();
+        let helper = if n.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
+        let t = n.cross(helper).normalize();
+        SphereBins { t, b: n.cross(t), n, sigma }
+    }
+    fn log_range(&self) -> f64 {
+        (1.0 + PI / self.sigma).ln()
+    }
+    fn bin(&self, d: DVec3) -> usize {
+        let (x, y, z) = (d.dot(self.t), d.dot(self.b), d.dot(self.n));
+        let theta = (x * x + y * y).sqrt().atan2(z);
+        let phi = y.atan2(x).rem_euclid(2.0 * PI);
+        let s = (1.0 + theta / self.sigma).ln() / self.log_range();
+        let i = ((s * BINS_THETA as f64) as usize).min(BINS_THETA - 1);
+        let j = ((phi / (2.0 * PI) * BINS_PHI as f64) as usize).min(BINS_PHI - 1);
+        i * BINS_PHI + j
+    }
+    /// Direction at (s, φ) and the solid angle per unit s per unit φ there.
+    fn direction(&self, s: f64, phi: f64) -> (DVec3, f64) {
+        let l = self.log_range();
+        let theta = (self.sigma * ((s * l).exp() - 1.0)).min(PI);
+        let local = DVec3::new(theta.sin() * phi.cos(), theta.sin() * phi.sin(), theta.cos());
+        let d = local.x * self.t + local.y * self.b + local.z * self.n;
+        // dω = sin θ' dθ' dφ', dθ'/ds = σ L e^{sL}
+        (d, theta.sin().abs() * self.sigma * l * (s * l).exp())
+    }
+}
+
+/// ln Γ(x), Lanczos approximation (Numerical Recipes 2nd ed., §6.1, gammln).
+fn ln_gamma(x: f64) -> f64 {
+    let c = [
+        76.18009172947146,
+        -86.50532032941677,
+        24.01409824083091,
+        -1.231739572450155,
+        0.1208650973866179e-2,
+        -0.5395239384953e-5,
+    ];
+    let mut y = x;
+    let tmp = x + 5.5 - (x + 0.5) * (x + 5.5).ln();
+    let mut ser = 1.000000000190015;
+    for c in c {
+        y += 1.0;
+        ser += c / y;
+    }
+    -tmp + (2.5066282746310005 * ser / x).ln()
+}
+
+/// Regularised upper incomplete gamma Q(a, x) (Numerical Recipes 2nd ed., §6.2, gammq).
+fn gamma_q(a: f64, x: f64) -> f64 {
+    if x <= 0.0 {
+        return 1.0;
+    }
+    if x < a + 1.0 {
+        let (mut ap, mut del) = (a, 1.0 / a);
+        let mut sum = del;
+        for _ in 0..10_000 {
+            ap += 1.0;
+            del *= x / ap;
+            sum += del;
+            if del.abs() < sum.abs() * 1e-15 {
+                break;
+            }
+        }
+        1.0 - sum * (-x + a * x.ln() - ln_gamma(a)).exp()
+    } else {
+        let mut b = x + 1.0 - a;
+        let mut c = 1.0 / 1e-300;
+        let mut d = 1.0 / b;
+        let mut h = d;
+        for i in 1..10_000 {
+            let an = -(i as f64) * (i as f64 - a);
+            b += 2.0;
+            d = an * d + b;
+            if d.abs() < 1e-300 {
+                d = 1e-300;
+            }
+            c = b + an / c;
+            if c.abs() < 1e-300 {
+                c = 1e-300;
+            }
+            d = 1.0 / d;
+            let del = d * c;
+            h *= del;
+            if (del - 1.0).abs() < 1e-15 {
+                break;
+            }
+        }
+        (-x + a * x.ln() - ln_gamma(a)).exp() * h
+    }
+}
+
+/// Pearson's chi-square with bins of expected count < 5 pooled into one. Returns (p-value, dof).
+fn chi_square(observed: &[f64], expected: &[f64]) -> (f64, usize) {
+    let (mut chi2, mut dof) = (0.0, 0usize);
+    let (mut pooled_o, mut pooled_e) = (0.0, 0.0);
+    for (&o, &e) in observed.iter().zip(expected) {
+        if e < 5.0 {
+            pooled_o += o;
+            pooled_e += e;
+        } else {
+            chi2 += (o - e) * (o - e) / e;
+            dof += 1;
+        }
+    }
+    if pooled_e >= 5.0 {
+        chi2 += (pooled_o - pooled_e) * (pooled_o - pooled_e) / pooled_e;
+        dof += 1;
+    } else if pooled_o > 10.0 * pooled_e.max(0.5) {
+        // Many samples where the pdf says there should be almost none.
+        return (0.0, dof);
+    }
+    let dof = dof.saturating_sub(1).max(1);
+    (gamma_q(dof as f64 / 2.0, chi2 / 2.0), dof)
+}
+
+fn write_histograms(case: &str, observed: &[f64], expected: &[f64], rows: usize, cols: usize) {
+    let dir = output_dir("chi2");
+    let name: String = case.chars().map(|c| if c.is_ascii_alphanumeric() || c == '.' { c } else { '_' }).collect();
+    let mut csv = String::from("row,col,observed,expected\n");
+    for (k, (o, e)) in observed.iter().zip(expected).enumerate() {
+        csv.push_str(&format!("{},{},{o},{e}\n", k / cols, k % cols));
+    }
+    std::fs::write(dir.join(format!("{name}.csv")), csv).unwrap();
+    let max = observed.iter().chain(expected).fold(1e-9f64, |a, &b| a.max(b));
+    let mut img = image::GrayImage::new(2 * cols as u32 + 1, rows as u32);
+    for (k, (o, e)) in observed.iter().zip(expected).enumerate() {
+        let (r, c) = ((k / cols) as u32, (k % cols) as u32);
+        img.put_pixel(c, r, image::Luma([(o / max * 255.0) as u8]));
+        img.put_pixel(c + cols as u32 + 1, r, image::Luma([(e / max * 255.0) as u8]));
+    }
+    img.save(dir.join(format!("{name}.png"))).unwrap();
+    eprintln!("{case}: histograms (observed | expected) written to {}", dir.join(format!("{name}.png")).display());
+}
+
+struct DirectionCase {
+    name: String,
+    scene: &'static GpuScene,
+    frame: FrameParams,
+    params: TestParams,
+    pdf_routine: u32,
+    bins: SphereBins,
+}
+
+/// Samples, histograms, integrates the pdf over the bins on the GPU, and checks: sampler pdf =
+/// pdf function, ∫ pdf = fraction of valid samples, chi-square p-value above `alpha`.
+fn run_direction_case(case: &DirectionCase, alpha: f64) -> Result<(), String> {
+    let k = kernel();
+    let params = TestParams { count: SAMPLES, ..case.params };
+    let out = k.run(case.scene, &case.frame, &params, &[], 2).unwrap();
+    let mut observed = vec![0.0f64; BINS_THETA * BINS_PHI];
+    let (mut valid, mut mismatched) = (0u64, 0u64);
+    for pair in out.chunks(2) {
+        let [x, y, z, pdf] = pair[0];
+        let [pdf_eval, _, is_valid, _] = pair[1];
+        if is_valid == 0.0 {
+            continue;
+        }
+        valid += 1;
+        if !pdf.is_finite() || pdf <= 0.0 || (pdf - pdf_eval).abs() > 1e-3 * pdf.max(pdf_eval) {
+            mismatched += 1;
+        }
+        observed[case.bins.bin(DVec3::new(x as f64, y as f64, z as f64).normalize())] += 1.0;
+    }
+    // Integrate the pdf function over every bin: SUB × SUB midpoints in (s, φ), then
+    // SUB_FINE × SUB_FINE in the bins where the pdf jumps or varies strongly.
+    let coarse = integrate_bins(case, &(0..BINS_THETA * BINS_PHI).collect::<Vec<_>>(), SUB);
+    // A jump can also cross a bin between its coarse points: refine the zero bins next to
+    // non-zero ones too.
+    let nonzero = |i: usize, j: usize| coarse[i * BINS_PHI + j % BINS_PHI].2 > 0.0;
+    let (mut jumps, mut curved) = (Vec::new(), Vec::new());
+    for (b, &(_, lo, hi)) in coarse.iter().enumerate() {
+        let (i, j) = (b / BINS_PHI, b % BINS_PHI);
+        let next_to_nonzero = nonzero(i, j + 1)
+            || nonzero(i, j + BINS_PHI - 1)
+            || (i > 0 && nonzero(i - 1, j))
+            || (i + 1 < BINS_THETA && nonzero(i + 1, j));
+        if (hi > 0.0 && lo == 0.0) || (hi == 0.0 && next_to_nonzero) {
+            jumps.push(b);
+        } else if hi > 1.5 * lo {
+            curved.push(b);
+        }
+    }
+    let mut bin_integral: Vec<f64> = coarse.iter().map(|c| c.0).collect();
+    for (bins, sub) in [(&curved, SUB_FINE), (&jumps, SUB_JUMP)] {
+        for (k, v) in integrate_bins(case, bins, sub).into_iter().enumerate() {
+            bin_integral[bins[k]] = v.0;
+        }
+    }
+    let expected: Vec<f64> = bin_integral.iter().map(|v| v * SAMPLES as f64).collect();
+    let integral: f64 = bin_integral.iter().sum();
+    let n = SAMPLES as f64;
+    let valid_fraction = valid as f64 / n;
+    let (p_value, dof) = chi_square(&observed, &expected);
+    let mut problems = Vec::new();
+    // Rays aimed at a sampled point within rounding of a triangle's edge may miss it.
+    if mismatched > 10 {
+        problems.push(format!("{mismatched} samples whose returned pdf differs from the pdf function"));
+    }
+    // Binomial standard error of the valid fraction, plus 2e-3 for the midpoint quadrature.
+    let tol = 5.0 * (valid_fraction * (1.0 - valid_fraction) / n).sqrt() + 2e-3;
+    if (integral - valid_fraction).abs() > tol {
+        problems.push(format!(
+            "∫pdf = {integral:.5} but {valid_fraction:.5} of the samples are valid (tolerance {tol:.5})"
+        ));
+    }
+    if p_value < alpha {
+        problems.push(format!("chi-square p = {p_value:.3e} < {alpha:.1e} ({dof} dof)"));
+    }
+    if problems.is_empty() {
+        Ok(())
+    } else {
+        write_histograms(&case.name, &observed, &expected, BINS_THETA, BINS_PHI);
+        Err(format!("{}: {}", case.name, problems.join("; ")))
+    }
+}
+
+/// ∫ pdf over each listed bin with sub × sub midpoints, and the smallest and largest pdf seen.
+fn integrate_bins(case: &DirectionCase, bins: &[usize], sub: usize) -> Vec<(f64, f64, f64)> {
+    let ds = 1.0 / (BINS_THETA * sub) as f64;
+    let dphi = 2.0 * PI / (BINS_PHI * sub) as f64;
+    let mut dirs = Vec::with_capacity(bins.len() * sub * sub);
+    let mut weights = Vec::with_capacity(dirs.capacity());
+    for &bin in bins {
+        let (bi, bj) = (bin / BINS_PHI, bin % BINS_PHI);
+        for i in 0..sub {
+            for j in 0..sub {
+                let s = (bi * sub + i) as f64 + 0.5;
+                let phi = (bj * sub + j) as f64 + 0.5;
+                let (d, jac) = case.bins.direction(s * ds, phi * dphi);
+                dirs.push([d.x as f32, d.y as f32, d.z as f32, 0.0]);
+                weights.push(jac * ds * dphi);
+            }
+        }
+    }
+    if dirs.is_empty() {
+        return Vec::new();
+    }
+    let mut pdfs = Vec::with_capacity(dirs.len());
+    for chunk in dirs.chunks(1 << 21) {
+        let eval = TestParams { routine: case.pdf_routine, count: chunk.len() as u32, ..case.params };
+        pdfs.extend(kernel().run(case.scene, &case.frame, &eval, chunk, 1).unwrap());
+    }
+    pdfs.chunks(sub * sub)
+        .zip(weights.chunks(sub * sub))
+        .map(|(p, w)| {
+            let mut sum = 0.0;
+            let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
+            for (p, w) in p.iter().zip(w) {
+                assert!(p[0].is_finite() && p[0] >= 0.0, "{}: pdf {}", case.name, p[0]);
+                sum += p[0] as f64 * w;
+                lo = lo.min(p[0] as f64);
+                hi = hi.max(p[0] as f64);
+            }
+            (sum, lo, hi)
+        })
+        .collect()
+}
+
+fn run_all(cases: &[DirectionCase]) {
+    let alpha = 0.01 / cases.len() as f64;
+    let failures: Vec<String> = cases.iter().filter_map(|c| run_direction_case(c, alpha).err()).collect();
+    assert!(failures.is_empty(), "{} of {} cases failed:\n{}", failures.len(), cases.len(), failures.join("\n"));
+}
+
+fn bsdf_case(name: String, routine: u32, pdf_routine: u32, m: layout::Material, theta_o: f64) -> DirectionCase {
+    let wo = wo_at(theta_o);
+    let alpha = (m.roughness * m.roughness).max(1e-4) as f64;
+    let mirror = DVec3::new(-wo.x as f64, -wo.y as f64, wo.z as f64);
+    DirectionCase {
+        name,
+        scene: empty_scene(),
+        frame: frame(0, layout::SELECT_EACH, layout::HEURISTIC_BALANCE),
+        params: TestParams { routine, seed: 17, wo: wo.to_array(), material: m, ..Default::default() },
+        pdf_routine,
+        bins: SphereBins::new(mirror, 2.0 * alpha),
+    }
+}
+
+#[test]
+fn hemisphere_samplers_match_their_pdfs() {
+    let m = material(Vec3::ONE, 0.0, 1.0);
+    let mk = |name: &str, r, p| DirectionCase {
+        bins: SphereBins::new(DVec3::Z, 1.0),
+        ..bsdf_case(name.into(), r, p, m, 0.0)
+    };
+    run_all(&[
+        mk("uniform hemisphere", routine::SAMPLE_UNIFORM, routine::PDF_UNIFORM),
+        mk("cosine hemisphere", routine::SAMPLE_COSINE, routine::PDF_COSINE),
+    ]);
+}
+
+#[test]
+fn ggx_visible_normal_sampling_matches_its_pdf() {
+    let mut cases = Vec::new();
+    for roughness in [0.01, 0.05, 0.2, 0.5, 1.0] {
+        for theta in [0.0, 30.0, 60.0, 85.0, 89.5] {
+            // At θo = 89.5° the α = 1e-4 lobe moves a unit vector's largest component by
+            // ~2e-6, about 30 f32 ulps: directions themselves cannot resolve it. 85° is the
+            // most grazing angle where f32 directions resolve that lobe (~3e-4 of its width).
+            if roughness == 0.01 && theta > 85.0 {
+                continue;
+            }
+            let m = material(Vec3::ONE, 1.0, roughness);
+            cases.push(bsdf_case(
+                format!("vndf roughness {roughness} θo {theta}"),
+                routine::SAMPLE_GGX_VNDF,
+                routine::PDF_GGX_VNDF,
+                m,
+                theta,
+            ));
+        }
+    }
+    run_all(&cases);
+}
+
+#[test]
+fn gltf_brdf_sampling_matches_its_mixture_pdf() {
+    let mut cases = Vec::new();
+    for metallic in [0.0, 1.0] {
+        for roughness in [0.01, 0.1, 0.5, 1.0] {
+            for theta in [0.0, 45.0, 80.0, 89.0] {
+                let m = material(Vec3::new(0.8, 0.5, 0.3), metallic, roughness);
+                cases.push(bsdf_case(
+                    format!("brdf metallic {metallic} roughness {roughness} θo {theta}"),
+                    routine::SAMPLE_BSDF,
+                    routine::PDF_BSDF,
+                    m,
+                    theta,
+                ));
+            }
+        }
+    }
+    run_all(&cases);
+}
+
+/// Light scenes for area sampling: (name, light triangles, the receiving point).
+fn light_scene(name: &str, quads: &[(Vec3, Vec3, Vec3, Vec3, Vec3)]) -> GpuScene {
+    let mut g = GltfBuilder::new();
+    let m = g.material(&MaterialDesc::emitter("light", Vec3::ONE));
+    let mut mesh = MeshData::default();
+    for &(a, b, c, d, facing) in quads {
+        mesh.append(&MeshData::quad(a, b, c, d, facing));
+    }
+    g.add_mesh("light", &mesh, m, glam::Mat4::IDENTITY);
+    upload(&load(&g, name))
+}
+
+#[test]
+fn area_light_sampling_matches_the_solid_angle_pdf() {
+    let leak = |s: GpuScene| -> &'static GpuScene { Box::leak(Box::new(s)) };
+    // A unit quad at z = 1 facing down, seen from points near and far, head-on and grazing;
+    // and a light of two unequal quads (triangle selection by area).
+    let quad = leak(light_scene(
+        "chi2-quad",
+        &[(
+            Vec3::new(-0.5, -0.5, 1.0),
+            Vec3::new(0.5, -0.5, 1.0),
+            Vec3::new(0.5, 0.5, 1.0),
+            Vec3::new(-0.5, 0.5, 1.0),
+            -Vec3::Z,
+        )],
+    ));
+    let two = leak(light_scene(
+        "chi2-two-quads",
+        &[
+            (
+                Vec3::new(-1.0, -0.2, 1.0),
+                Vec3::new(0.0, -0.2, 1.0),
+                Vec3::new(0.0, 0.2, 1.0),
+                Vec3::new(-1.0, 0.2, 1.0),
+                -Vec3::Z,
+            ),
+            (
+                Vec3::new(0.3, -0.1, 0.8),
+                Vec3::new(0.5, -0.1, 0.8),
+                Vec3::new(0.5, 0.1, 0.8),
+                Vec3::new(0.3, 0.1, 0.8),
+                -Vec3::Z,
+            ),
+        ],
+    ));
+    let case = |name: &str, scene: &'static GpuScene, point: Vec3, center: Vec3, radius: f64| {
+        let to_center = (center - point).as_dvec3();
+        DirectionCase {
+            name: name.into(),
+            scene,
+            frame: frame(1, layout::SELECT_EACH, layout::HEURISTIC_BALANCE),
+            params: TestParams {
+                routine: routine::SAMPLE_LIGHT,
+                seed: 5,
+                point: point.to_array(),
+                ..Default::default()
+            },
+            pdf_routine: routine::PDF_LIGHT,
+            bins: SphereBins::new(to_center, radius / to_center.length()),
+        }
+    };
+    run_all(&[
+        case("quad head-on near", quad, Vec3::new(0.0, 0.0, 0.5), Vec3::new(0.0, 0.0, 1.0), 0.7),
+        case("quad head-on far", quad, Vec3::new(0.1, 0.0, -20.0), Vec3::new(0.0, 0.0, 1.0), 0.7),
+        case("quad off-centre", quad, Vec3::new(1.5, 0.7, 0.0), Vec3::new(0.0, 0.0, 1.0), 0.7),
+        case("quad at grazing angle", quad, Vec3::new(4.0, 0.0, 0.9), Vec3::new(0.0, 0.0, 1.0), 0.7),
+        case("two unequal quads", two, Vec3::new(0.0, 0.0, 0.0), Vec3::new(-0.2, 0.0, 0.9), 0.8),
+    ]);
+}
+
+#[test]
+fn light_selection_matches_its_probabilities() {
+    // Six point lights whose powers span three orders of magnitude.
+    let mut g = GltfBuilder::new();
+    let intensities = [1.0f32, 3.0, 10.0, 30.0, 100.0, 1000.0];
+    for (i, &v) in intensities.iter().enumerate() {
+        let pos = Vec3::new(i as f32, 1.0, 0.0);
+        g.punctual_light(
+            &format!("p{i}"),
+            veach::assets::gltf_writer::Punctual::Point,
+            Vec3::splat(v),
+            pos,
+            Vec3::ZERO,
+        );
+    }
+    let scene = upload(&load(&g, "chi2-selection"));
+    let total: f32 = intensities.iter().sum();
+    let n = intensities.len();
+    for (selection, probabilities) in [
+        (layout::SELECT_UNIFORM, vec![1.0 / n as f64; n]),
+        (layout::SELECT_POWER, intensities.iter().map(|&v| (v / total) as f64).collect()),
+    ] {
+        let params = TestParams { routine: routine::SELECT_LIGHT, count: SAMPLES, seed: 3, ..Default::default() };
+        let out = kernel().run(&scene, &frame(n as u32, selection, 0), &params, &[], 1).unwrap();
+        let mut observed = vec![0.0; n];
+        for [index, pdf, _, _] in out {
+            let i = index as usize;
+            assert!(
+                (pdf as f64 - probabilities[i]).abs() < 1e-6,
+                "selection pdf of light {i}: {pdf} vs {}",
+                probabilities[i]
+            );
+            observed[i] += 1.0;
+        }
+        let expected: Vec<f64> = probabilities.iter().map(|p| p * SAMPLES as f64).collect();
+        let (p_value, _) = chi_square(&observed, &expected);
+        if p_value < 0.01 / 2.0 {
+            write_histograms(&format!("selection {selection}"), &observed, &expected, 1, n);
+            panic!("selection {selection}: chi-square p = {p_value:.2e}; observed {observed:?}, expected {expected:?}");
+        }
+    }
+}
+
+/// The glTF 2.0 Appendix B BRDF (with KHR_materials_specular's weighting) in f64 on the host:
+/// an independent reference for the furnace integrals below, written from the specification.
+fn reference_brdf(base: f64, metallic: f64, roughness: f64, specular: f64, wo: DVec3, wi: DVec3) -> f64 {
+    if wo.z <= 0.0 || wi.z <= 0.0 {
+        return 0.0;
+    }
+    let a = (roughness * roughness).max(1e-4);
+    let a2 = a * a;
+    let h = (wo + wi).normalize();
+    let d = a2 / (PI * (h.z * h.z * (a2 - 1.0) + 1.0).powi(2));
+    let v = 0.5 / (wi.z * (wo.z * wo.z * (1.0 - a2) + a2).sqrt() + wo.z * (wi.z * wi.z * (1.0 - a2) + a2).sqrt());
+    let vh = wo.dot(h).abs();
+    let schlick = |f0: f64| f0 + (1.0 - f0) * (1.0 - vh).powi(5);
+    let fr = schlick(0.04);
+    let dielectric = (1.0 - specular * fr) * base / PI + specular * fr * d * v;
+    let metal = schlick(base) * d * v;
+    (1.0 - metallic) * dielectric + metallic * metal
+}
+
+/// Directional albedo ∫ f cos dω of the reference BRDF, by the midpoint rule on the log-polar
+/// grid around the mirror direction (which resolves narrow lobes; f cos is continuous there).
+fn reference_albedo(base: f64, metallic: f64, roughness: f64, specular: f64, wo: DVec3) -> f64 {
+    let alpha = (roughness * roughness).max(1e-4);
+    let grid = SphereBins::new(DVec3::new(-wo.x, -wo.y, wo.z), 2.0 * alpha);
+    let (ns, np) = (600, 600);
+    let (ds, dphi) = (1.0 / ns as f64, 2.0 * PI / np as f64);
+    let mut sum = 0.0;
+    for i in 0..ns {
+        for j in 0..np {
+            let (wi, jac) = grid.direction((i as f64 + 0.5) * ds, (j as f64 + 0.5) * dphi);
+            sum += reference_brdf(base, metallic, roughness, specular, wo, wi) * wi.z.max(0.0) * jac * ds * dphi;
+        }
+    }
+    sum
+}
+
+/// White furnace: the albedo that BRDF sampling on the GPU estimates (mean of f cos / pdf under
+/// unit illumination) equals the albedo of the specification's BRDF, within 5 standard errors
+/// plus 1e-3 for the reference quadrature. The Lambertian lobe reflects exactly 1 per sample,
+/// conductors at most 1. The dielectric's fresnel_mix weights the diffuse lobe by 1 − F(V·H),
+/// which is not energy conserving at grazing view: the specification's BRDF itself reflects
+/// more than 1 there (1.149 at 75°, 1.34 at 88° for roughness 0.3); veach follows the
+/// specification, and this test pins that value rather than hiding it.
+#[test]
+fn white_furnace_matches_the_specification_albedo() {
+    let mut report = Vec::new();
+    for (metallic, specular, roughness) in [
+        (0.0, 0.0, 1.0),
+        (0.0, 1.0, 0.3),
+        (0.0, 1.0, 1.0),
+        (1.0, 1.0, 0.05),
+        (1.0, 1.0, 0.5),
+        (1.0, 1.0, 1.0),
+        (0.5, 1.0, 0.2),
+    ] {
+        for theta in [0.0, 40.0, 75.0, 88.0] {
+            let m = layout::Material { specular, ..material(Vec3::ONE, metallic, roughness) };
+            let wo = wo_at(theta);
+            let params = TestParams {
+                routine: routine::SAMPLE_BSDF,
+                count: SAMPLES,
+                seed: 11,
+                wo: wo.to_array(),
+                material: m,
+                ..Default::default()
+            };
+            let out = kernel().run(empty_scene(), &frame(0, 0, 0), &params, &[], 2).unwrap();
+            let weights: Vec<f64> = out.chunks(2).map(|p| p[1][1] as f64).collect();
+            assert!(weights.iter().all(|w| w.is_finite() && *w >= 0.0), "negative or non-finite weight");
+            let n = weights.len() as f64;
+            let mean = weights.iter().sum::<f64>() / n;
+            let var = weights.iter().map(|w| (w - mean) * (w - mean)).sum::<f64>() / (n - 1.0);
+            let se = (var / n).sqrt();
+            let case = format!("metallic {metallic} specular {specular} roughness {roughness} θo {theta}");
+            let reference =
+                reference_albedo(1.0, metallic as f64, roughness as f64, specular as f64, wo.as_dvec3().normalize());
+            report.push(format!("{case}: GPU {mean:.4} ± {se:.1e}, specification {reference:.4}"));
+            if specular == 0.0 && metallic == 0.0 {
+                // Lambert: f cos / pdf = (1/π) cos / (cos/π) = 1 for every sample, up to rounding.
+                assert!(weights.iter().all(|w| (w - 1.0).abs() < 1e-4), "{case}: Lambert weights differ from 1");
+            }
+            if metallic == 1.0 {
+                assert!(mean <= 1.0 + 5.0 * se, "{case}: a conductor reflects {mean:.5} ± {se:.1e} > 1");
+            }
+            assert!(
+                (mean - reference).abs() <= 5.0 * se + 1e-3,
+                "{case}: albedo {mean:.5} ± {se:.1e} but the specification's BRDF gives {reference:.5}"
+            );
+        }
+    }
+    eprintln!("{}", report.join("\n"));
+}
+
+#[test]
+fn brdf_values_are_finite_and_non_negative_everywhere() {
+    // wo and wi on a grid over the sphere (both hemispheres), every kind of material.
+    let mut dirs = Vec::new();
+    for i in 0..24 {
+        for j in 0..24 {
+            let ct = -1.0 + 2.0 * (i as f32 + 0.5) / 24.0;
+            let st = (1.0 - ct * ct).max(0.0).sqrt();
+            let phi = 2.0 * std::f32::consts::PI * j as f32 / 24.0;
+            dirs.push(Vec3::new(st * phi.cos(), st * phi.sin(), ct));
+        }
+    }
+    dirs.extend([Vec3::Z, Vec3::X, Vec3::new(1.0, 0.0, 1e-7).normalize()]);
+    let mut input = Vec::new();
+    for a in &dirs {
+        for b in &dirs {
+            input.push([a.x, a.y, a.z, 0.0]);
+            input.push([b.x, b.y, b.z, 0.0]);
+        }
+    }
+    for (metallic, roughness) in [(0.0, 0.0), (0.0, 0.01), (0.0, 1.0), (1.0, 0.0), (1.0, 0.01), (1.0, 0.5), (0.5, 0.3)]
+    {
+        let params = TestParams {
+            routine: routine::EVAL_BSDF,
+            count: (input.len() / 2) as u32,
+            material: material(Vec3::new(0.9, 0.6, 0.2), metallic, roughness),
+            ..Default::default()
+        };
+        let out = kernel().run(empty_scene(), &frame(0, 0, 0), &params, &input, 1).unwrap();
+        for (k, v) in out.iter().enumerate() {
+            assert!(
+                v.iter().all(|x| x.is_finite() && *x >= 0.0),
+                "metallic {metallic} roughness {roughness}: f, pdf = {v:?} at pair {k}"
+            );
+        }
+    }
+}
+
+/// Balance and power heuristics with the sample counts (Veach & Guibas 1995): the weights of the
+/// two strategies for one direction sum to one and match the formulas.
+#[test]
+fn mis_weights_sum_to_one_and_match_the_heuristics() {
+    let mut input = Vec::new();
+    for nf in [1.0f32, 4.0, 32.0] {
+        for ng in [0.0f32, 1.0, 7.0] {
+            for pf in [1e-30f32, 1e-3, 0.5, 3.0, 1e6, 1e30] {
+                for pg in [0.0f32, 1e-3, 0.5, 3.0, 1e6, 1e30] {
+                    input.push([nf, pf, ng, pg]);
+                }
+            }
+        }
+    }
+    for heuristic in [layout::HEURISTIC_BALANCE, layout::HEURISTIC_POWER] {
+        let params = TestParams { routine: routine::MIS_WEIGHTS, count: input.len() as u32, ..Default::default() };
+        let out = kernel().run(empty_scene(), &frame(0, 0, heuristic), &params, &input, 1).unwrap();
+        for ([nf, pf, ng, pg], [wf, wg, _, _]) in input.iter().zip(&out) {
+            let (f, g) = ((nf * pf) as f64, (ng * pg) as f64);
+            let expected = if heuristic == layout::HEURISTIC_BALANCE { f / (f + g) } else { f * f / (f * f + g * g) };
+            let expected = if expected.is_finite() {
+                expected
+            } else {
+                1.0 / (1.0 + (g / f).powi(if heuristic == 0 { 1 } else { 2 }))
+            };
+            assert!(
+                (*wf as f64 - expected).abs() < 1e-5,
+                "h{heuristic} n_f {nf} p_f {pf} n_g {ng} p_g {pg}: w_f {wf} vs {expected}"
+            );
+            assert!((wf + wg - 1.0).abs() < 1e-5, "h{heuristic} weights sum to {} for {nf} {pf} {ng} {pg}", wf + wg);
+        }
+    }
+}
