@@ -136,7 +136,8 @@ fn contribution_images_add_up_to_the_image() {
     for strategy in [Strategy::Mis, Strategy::Light, Strategy::Brdf] {
         let settings = RenderSettings { write_aovs: true, ..small(strategy, 3) };
         let out = render(&gpu_scene, &settings, &camera);
-        let (light, brdf, emitted) = out.contribution_means_with_emission().unwrap();
+        let images = out.contribution_images().unwrap();
+        let (light, brdf, emitted) = (&images.light, &images.brdf, &images.emitted_luminance);
         let mut light_total = 0.0;
         for (i, m) in out.mean().iter().enumerate() {
             for c in 0..3 {

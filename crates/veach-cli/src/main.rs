@@ -310,23 +310,24 @@ fn render(args: RenderArgs) -> Result<()> {
     }
 
     veach::image_io::write_image(&args.output, out.width, out.height, &out.mean(), args.exposure)?;
-    if let Some((light, brdf, emitted)) = out.contribution_means_with_emission() {
+    if let Some(images) = out.contribution_images() {
+        let (light, brdf, emitted) = (&images.light, &images.brdf, &images.emitted_luminance);
         let ext = args.output.extension().and_then(|e| e.to_str()).unwrap_or("exr");
         let sibling = |name: &str, ext: &str| args.output.with_extension(format!("{name}.{ext}"));
         let mut written = Vec::new();
         if args.aov.contains(&AovArg::Light) {
             let path = sibling("light", ext);
-            veach::image_io::write_image(&path, out.width, out.height, &light, args.exposure)?;
+            veach::image_io::write_image(&path, out.width, out.height, light, args.exposure)?;
             written.push(path);
         }
         if args.aov.contains(&AovArg::Brdf) {
             let path = sibling("brdf", ext);
-            veach::image_io::write_image(&path, out.width, out.height, &brdf, args.exposure)?;
+            veach::image_io::write_image(&path, out.width, out.height, brdf, args.exposure)?;
             written.push(path);
         }
         if args.aov.contains(&AovArg::Weights) {
             let path = sibling("weights", "png");
-            let colours = veach::image_io::light_share_false_colour(&light, &brdf, &emitted);
+            let colours = veach::image_io::light_share_false_colour(light, brdf, emitted);
             veach::image_io::write_image(&path, out.width, out.height, &colours, 0.0)?;
             written.push(path);
         }

@@ -54,7 +54,7 @@ pub fn light_share_false_colour(light: &[[f32; 3]], brdf: &[[f32; 3]], emitted: 
             let (a, c) = (lum(l).max(0.0), (lum(b) - e).max(0.0));
             // Below rounding of the emission: nothing was sampled.
             let c = if c <= 1e-6 * e { 0.0 } else { c };
-            if !(a + c > 0.0) {
+            if a + c <= 0.0 || (a + c).is_nan() {
                 return [0.0; 3];
             }
             let t = a / (a + c);

@@ -120,6 +120,14 @@ pub struct Contributions {
     pub brdf: Vec<[f32; 4]>,
 }
 
+/// Per-pixel means of `Contributions`: `light + brdf` is the image; `emitted_luminance` is the
+/// luminance of the directly seen emission inside `brdf`.
+pub struct ContributionImages {
+    pub light: Vec<[f32; 3]>,
+    pub brdf: Vec<[f32; 3]>,
+    pub emitted_luminance: Vec<f32>,
+}
+
 /// The accumulated image and what it cost.
 pub struct RenderOutput {
     pub width: u32,
@@ -170,13 +178,8 @@ impl RenderOutput {
             .collect()
     }
 
-    /// Mean light-sample and BRDF-sample images (see `Contributions`).
-    pub fn contribution_means(&self) -> Option<(Vec<[f32; 3]>, Vec<[f32; 3]>)> {
-        self.contribution_means_with_emission().map(|(l, b, _)| (l, b))
-    }
-
-    /// As `contribution_means`, plus the mean luminance of the emission in the BRDF image.
-    pub fn contribution_means_with_emission(&self) -> Option<(Vec<[f32; 3]>, Vec<[f32; 3]>, Vec<f32>)> {
+    /// Mean light-sample and BRDF-sample images (see `Contributions`), when rendered.
+    pub fn contribution_images(&self) -> Option<ContributionImages> {
         let c = self.contributions.as_ref()?;
         let mean = |sums: &[[f32; 4]]| -> Vec<[f32; 3]> {
             sums.iter()
@@ -187,8 +190,11 @@ impl RenderOutput {
                 })
                 .collect()
         };
-        let emitted = c.brdf.iter().zip(&self.sum).map(|(v, s)| v[3] / s[3].max(1.0)).collect();
-        Some((mean(&c.light), mean(&c.brdf), emitted))
+        Some(ContributionImages {
+            light: mean(&c.light),
+            brdf: mean(&c.brdf),
+            emitted_luminance: c.brdf.iter().zip(&self.sum).map(|(v, s)| v[3] / s[3].max(1.0)).collect(),
+        })
     }
 
     pub fn min_samples(&self) -> u32 {
