@@ -200,7 +200,9 @@ fn estimate_radiance(ray: Ray, rng: ptr<function, u32>, rays: ptr<function, u32>
     let s = surface_at(hit, ray.dir);
     let f = frame_from_normal(s.ns);
     let c = ShadingContext(s, f, frame_to_local(f, -ray.dir), bsdf_params(materials[s.material]));
-    e.emitted = emitted_radiance(s);
+    if frame.hide_emitters == 0u {
+        e.emitted = emitted_radiance(s);
+    }
     switch frame.strategy {
         case STRATEGY_UNIFORM: {
             e.brdf = estimate_uniform_sampling(c, rng, rays);

@@ -55,7 +55,8 @@ struct FrameParams {
     light_count: u32,
     // 1: also accumulate the light-sample and BRDF-sample contributions (aov_light, aov_brdf).
     write_aovs: u32,
-    _pad0: u32,
+    // 1: leave out emission seen directly by camera rays (direct lighting only).
+    hide_emitters: u32,
     _pad1: u32,
 }
 

@@ -122,6 +122,55 @@ fn contribution_images_are_written_next_to_the_output() {
     }
 }
 
+/// Smoke test of `veach bench` at a tiny size: the outputs exist and results.csv is well formed.
+#[test]
+fn bench_writes_a_well_formed_report() {
+    let dir = out_dir().join("bench");
+    let _ = std::fs::remove_dir_all(&dir);
+    let o = veach(&[
+        "bench",
+        &assets("cornell-box.gltf"),
+        "-o",
+        dir.to_str().unwrap(),
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--max-spp",
+        "4",
+        "--seeds",
+        "2",
+        "--reference-spp",
+        "32",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let csv = std::fs::read_to_string(dir.join("results.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next().unwrap(), "scene,strategy,budget,spp,seconds,rmse,relmse,mae,efficiency,seed");
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    // 5 strategies × budgets 1, 2, 4 × 2 seeds.
+    assert_eq!(rows.len(), 5 * 3 * 2);
+    for r in &rows {
+        assert_eq!(r.len(), 10, "{r:?}");
+        assert_eq!(r[0], "cornell-box");
+        for v in &r[3..9] {
+            let x: f64 = v.parse().unwrap_or_else(|_| panic!("not a number: {v}"));
+            assert!(x.is_finite() && x >= 0.0, "{r:?}");
+        }
+        assert!(r[4].parse::<f64>().unwrap() > 0.0, "zero render time: {r:?}");
+    }
+    let strategies: std::collections::BTreeSet<&str> = rows.iter().map(|r| r[1]).collect();
+    assert_eq!(strategies.into_iter().collect::<Vec<_>>(), ["brdf", "light", "mis-balance", "mis-power", "uniform"]);
+    let report = std::fs::read_to_string(dir.join("report.md")).unwrap();
+    for needle in ["## cornell-box", "Error at equal time", "Convergence", "By region", "cornell-box-relmse.svg"] {
+        assert!(report.contains(needle), "report.md lacks {needle}");
+    }
+    assert!(std::fs::read_to_string(dir.join("cornell-box-relmse.svg")).unwrap().starts_with("<svg"));
+    assert!(image::open(dir.join("cornell-box-equal-time.png")).is_ok());
+    // The reference is cached and reused.
+    assert!(dir.join("reference-cornell-box-16x16-32spp.pfm").exists());
+}
+
 #[test]
 fn help_explains_the_sample_counts() {
     let o = veach(&["render", "--help"]);

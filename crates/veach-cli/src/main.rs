@@ -24,6 +24,8 @@ struct Cli {
 enum Command {
     /// Render a glTF scene (.gltf or .glb) to an image.
     Render(RenderArgs),
+    /// Measure error against render time for every strategy (results.csv, plots, report.md).
+    Bench(BenchArgs),
     /// Print what veach sees in a scene: counts, materials, lights, cameras.
     Info {
         /// glTF scene (.gltf or .glb)
@@ -144,11 +146,60 @@ struct RenderArgs {
     quiet: bool,
 }
 
+#[derive(clap::Args)]
+#[command(after_long_help = "For each scene: a reference (--reference, or MIS rendered at --reference-spp and cached \
+in DIR), then every strategy at budgets 1, 2, 4 ... --max-spp camera samples per pixel (or, with --time-budgets, \
+--min-seconds, 2x ... --max-seconds) over --seeds seeds, then every strategy at equal time. Each camera sample \
+takes 2 uniform, 2 BRDF, 2 light or 1 + 1 MIS samples (one light chosen by power per light sample), so all \
+strategies trace about the same rays per sample. Render time is measured by GPU timestamps where the adapter \
+has them (else wall clock), without kernel compilation or uploads.
+
+Writes DIR/results.csv, DIR/report.md, DIR/SCENE-relmse.svg (log-log relMSE against seconds) and \
+DIR/SCENE-equal-time.png (reference and every strategy at equal time, with an enlarged crop).")]
+struct BenchArgs {
+    /// glTF scenes
+    #[arg(required = true)]
+    scenes: Vec<PathBuf>,
+    /// Output directory
+    #[arg(short, long, default_value = "bench-out")]
+    output: PathBuf,
+    #[arg(long, default_value_t = 128)]
+    width: u32,
+    #[arg(long, default_value_t = 128)]
+    height: u32,
+    /// Largest budget in camera samples per pixel (budgets double from 1)
+    #[arg(long, default_value_t = 64)]
+    max_spp: u32,
+    /// Budgets in seconds instead of samples
+    #[arg(long)]
+    time_budgets: bool,
+    #[arg(long, default_value_t = 0.05)]
+    min_seconds: f64,
+    #[arg(long, default_value_t = 1.6)]
+    max_seconds: f64,
+    /// Renders per budget (seeds 1..=N); the report gives the median and spread
+    #[arg(long, default_value_t = 3)]
+    seeds: u32,
+    /// Reference image (linear .exr or .pfm, same size) instead of rendering one
+    #[arg(long)]
+    reference: Option<PathBuf>,
+    /// Camera samples per pixel of the rendered reference [default: 16 × --max-spp, at least 256]
+    #[arg(long)]
+    reference_spp: Option<u32>,
+    /// Seconds of the equal-time comparison [default: mis-balance's time at the largest budget]
+    #[arg(long)]
+    equal_time: Option<f64>,
+    /// Use the adapter whose name contains this text (also VEACH_ADAPTER)
+    #[arg(long)]
+    adapter: Option<String>,
+}
+
 fn main() {
     let cli = Cli::parse();
     quiet_mesa_runtime_dir_warning();
     let result = match cli.command {
         Command::Render(args) => render(args),
+        Command::Bench(args) => bench(args),
         Command::Info { scene } => info(&scene),
         Command::Generate { name, output } => generate(&name, &output),
     };
@@ -361,6 +412,114 @@ fn render(args: RenderArgs) -> Result<()> {
             f.write_all(text.as_bytes()).map_err(|e| e.to_string())
         })?;
     }
+    Ok(())
+}
+
+fn bench(args: BenchArgs) -> Result<()> {
+    use veach::bench::Budget;
+    use veach::bench_run::{BenchConfig, bench_scene, bench_units, csv, slope_warnings};
+    if args.width == 0 || args.height == 0 || args.max_spp == 0 || args.seeds == 0 {
+        bail!("--width, --height, --max-spp and --seeds must be at least 1");
+    }
+    let budgets: Vec<Budget> = if args.time_budgets {
+        if !(args.min_seconds > 0.0 && args.max_seconds >= args.min_seconds) {
+            bail!("--min-seconds must be positive and at most --max-seconds");
+        }
+        std::iter::successors(Some(args.min_seconds), |t| Some(t * 2.0))
+            .take_while(|t| *t <= args.max_seconds * 1.0001)
+            .map(Budget::Seconds)
+            .collect()
+    } else {
+        std::iter::successors(Some(1u32), |n| n.checked_mul(2))
+            .take_while(|n| *n <= args.max_spp)
+            .map(Budget::Spp)
+            .collect()
+    };
+    std::fs::create_dir_all(&args.output).with_context(|| format!("cannot create {}", args.output.display()))?;
+    let config = BenchConfig {
+        width: args.width,
+        height: args.height,
+        budgets,
+        seeds: args.seeds,
+        strategies: veach::bench::default_strategies(),
+        reference_spp: args.reference_spp.unwrap_or((16 * args.max_spp).max(256)),
+        reference: args.reference.clone(),
+        equal_time: args.equal_time,
+        out_dir: args.output.clone(),
+    };
+    // Load every scene first: a bad file fails before any time is spent.
+    let mut scenes = Vec::new();
+    for path in &args.scenes {
+        let scene = veach::load_gltf(path)?;
+        let camera = scene.camera(None).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
+        scenes.push((path, scene, camera));
+    }
+    let gpu = GpuContext::new(args.adapter.as_deref())?;
+    eprintln!("adapter: {}", gpu.describe());
+    let renderer = Renderer::new(gpu)?;
+    let per_scene = bench_units(&config);
+    let total = per_scene * scenes.len() as u64;
+    let bar = ProgressBar::new(total);
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} eta {eta} {msg}")
+            .expect("valid template"),
+    );
+    let mut rows = Vec::new();
+    let mut report = format!(
+        "# veach bench\n\nAdapter: {}. Strategies per camera sample: uniform 2, brdf 2, light 2, mis 1 + 1 \
+         (one light chosen by power per light sample). Times are render times only ({}).\n\n",
+        renderer.gpu.describe(),
+        if renderer.gpu.has_timestamps { "GPU timestamps" } else { "wall clock around submit and wait" }
+    );
+    let mut summaries = Vec::new();
+    for (k, (path, scene, camera)) in scenes.iter().enumerate() {
+        let gpu_scene = renderer.upload_scene(scene)?;
+        let result = bench_scene(
+            &renderer,
+            &gpu_scene,
+            camera,
+            path,
+            &config,
+            &mut |done, _, msg| {
+                bar.set_position(done);
+                bar.set_message(msg.to_owned());
+            },
+            k as u64 * per_scene,
+            total,
+        )?;
+        rows.extend(result.rows.iter().cloned());
+        report.push_str(&result.report);
+        summaries.push(result);
+    }
+    bar.finish_and_clear();
+    let write_text = |name: &str, text: &str| -> Result<()> {
+        veach::image_io::write_atomically(&args.output.join(name), |f| {
+            use std::io::Write;
+            f.write_all(text.as_bytes()).map_err(|e| e.to_string())
+        })?;
+        Ok(())
+    };
+    write_text("results.csv", &csv(&rows))?;
+    write_text("report.md", &report)?;
+
+    println!("{:<16} {:<12} {:>10} {:>12} {:>8}", "scene", "strategy", "spp", "relMSE", "slope");
+    for b in &summaries {
+        for r in &b.equal_time {
+            let slope = b
+                .curves
+                .iter()
+                .find(|c| c.strategy == r.strategy)
+                .and_then(veach::bench::fit_convergence)
+                .map(|(_, s)| format!("{s:.2}"))
+                .unwrap_or_else(|| "-".into());
+            println!("{:<16} {:<12} {:>10.1} {:>12.3e} {:>8}", b.scene, r.strategy, r.spp, r.metrics.relmse, slope);
+        }
+        for w in slope_warnings(b) {
+            println!("warning: {w}");
+        }
+    }
+    println!("(equal time per scene; relMSE against the reference; slope of log relMSE vs log seconds)");
+    eprintln!("wrote {}", args.output.join("report.md").display());
     Ok(())
 }
 

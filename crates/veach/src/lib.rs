@@ -5,6 +5,8 @@
 //! by `shaders`) → `image_io`.
 
 pub mod assets;
+pub mod bench;
+pub mod bench_run;
 pub mod bvh;
 pub mod error;
 pub mod gpu;

@@ -81,6 +81,8 @@ pub struct RenderSettings {
     pub dispatch_target: Duration,
     /// Also accumulate the light-sample and BRDF-sample contribution images.
     pub write_aovs: bool,
+    /// Leave out emission seen directly by camera rays: the image is reflected direct light only.
+    pub hide_emitters: bool,
 }
 
 impl Default for RenderSettings {
@@ -99,6 +101,7 @@ impl Default for RenderSettings {
             time_limit: None,
             dispatch_target: Duration::from_millis(150),
             write_aovs: false,
+            hide_emitters: false,
         }
     }
 }
@@ -139,7 +142,10 @@ pub struct RenderOutput {
     pub contributions: Option<Contributions>,
     pub rays: u64,
     pub nonfinite_samples: u64,
+    /// Wall-clock time of the dispatches: submit until the GPU is done.
     pub render_time: Duration,
+    /// The dispatches' time by GPU timestamps, where the adapter has timestamp queries.
+    pub gpu_time: Option<Duration>,
     pub dispatches: u32,
     /// Stopped by the callback (Ctrl-C) before the budget was spent.
     pub interrupted: bool,
@@ -367,6 +373,7 @@ impl Renderer {
             },
             light_count,
             write_aovs: s.write_aovs as u32,
+            hide_emitters: s.hide_emitters as u32,
             ..Default::default()
         }
     }
@@ -419,6 +426,8 @@ impl Renderer {
 
         let outputs = [&accum, &accum_sq, &counters, &aov_light, &aov_brdf];
         let bind_group = self.bind_group(&self.bind_group_layout, &params_buffer, scene, &outputs, &[]);
+        // Timestamps at the start and end of every dispatch, where the adapter has them.
+        let timer = self.gpu.has_timestamps.then(|| GpuTimer::new(device, queue));
 
         let mut params = self.frame_params(scene.light_count, settings, camera);
         let total_pixel_samples = pixels * settings.spp as u64;
@@ -428,6 +437,7 @@ impl Renderer {
         // Seconds per pixel-sample, measured as we go; start small to measure safely.
         let mut cost: Option<f64> = None;
         let mut render_time = Duration::ZERO;
+        let mut gpu_time = Duration::ZERO;
         let mut dispatches = 0u32;
         let mut interrupted = false;
         let max_dim = device.limits().max_compute_workgroups_per_dimension;
@@ -458,10 +468,16 @@ impl Renderer {
             queue.write_buffer(&params_buffer, 0, bytemuck::bytes_of(&params));
             let mut encoder = device.create_command_encoder(&Default::default());
             {
-                let mut pass = encoder.begin_compute_pass(&Default::default());
+                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                    label: Some("render"),
+                    timestamp_writes: timer.as_ref().map(GpuTimer::writes),
+                });
                 pass.set_pipeline(&self.pipeline);
                 pass.set_bind_group(0, &bind_group, &[]);
                 pass.dispatch_workgroups(w.div_ceil(WORKGROUP_SIZE.0), rows.div_ceil(WORKGROUP_SIZE.1), 1);
+            }
+            if let Some(t) = &timer {
+                t.resolve(&mut encoder);
             }
             let start = Instant::now();
             queue.submit([encoder.finish()]);
@@ -470,6 +486,9 @@ impl Renderer {
                 .map_err(|e| Error::Gpu(format!("waiting for the GPU failed: {e}")))?;
             let elapsed = start.elapsed();
             render_time += elapsed;
+            if let Some(t) = &timer {
+                gpu_time += t.read(device)?;
+            }
             dispatches += 1;
             let work = w as u64 * rows as u64 * samples as u64;
             done += work;
@@ -510,9 +529,77 @@ impl Renderer {
             rays: counts.iter().map(|c| c.rays as u64).sum(),
             nonfinite_samples: counts.iter().map(|c| c.nonfinite as u64).sum(),
             render_time,
+            gpu_time: timer.is_some().then_some(gpu_time),
             dispatches,
             interrupted,
         })
+    }
+}
+
+/// Timestamp queries around one compute pass, resolved and read back after each dispatch.
+struct GpuTimer {
+    queries: wgpu::QuerySet,
+    resolved: wgpu::Buffer,
+    readback: wgpu::Buffer,
+    period_ns: f64,
+}
+
+impl GpuTimer {
+    fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> GpuTimer {
+        let queries = device.create_query_set(&wgpu::QuerySetDescriptor {
+            label: Some("dispatch timestamps"),
+            ty: wgpu::QueryType::Timestamp,
+            count: 2,
+        });
+        let buffer = |usage| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some("timestamps"),
+                size: 16,
+                usage,
+                mapped_at_creation: false,
+            })
+        };
+        GpuTimer {
+            queries,
+            resolved: buffer(wgpu::BufferUsages::QUERY_RESOLVE | wgpu::BufferUsages::COPY_SRC),
+            readback: buffer(wgpu::BufferUsages::MAP_READ | wgpu::BufferUsages::COPY_DST),
+            period_ns: queue.get_timestamp_period() as f64,
+        }
+    }
+
+    fn writes(&self) -> wgpu::ComputePassTimestampWrites<'_> {
+        wgpu::ComputePassTimestampWrites {
+            query_set: &self.queries,
+            beginning_of_pass_write_index: Some(0),
+            end_of_pass_write_index: Some(1),
+        }
+    }
+
+    fn resolve(&self, encoder: &mut wgpu::CommandEncoder) {
+        encoder.resolve_query_set(&self.queries, 0..2, &self.resolved, 0);
+        encoder.copy_buffer_to_buffer(&self.resolved, 0, &self.readback, 0, 16);
+    }
+
+    /// The time between the two timestamps of the last dispatch (call after it finished).
+    fn read(&self, device: &wgpu::Device) -> Result<Duration> {
+        let slice = self.readback.slice(..);
+        let (tx, rx) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |r| {
+            let _ = tx.send(r);
+        });
+        device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| Error::Gpu(format!("waiting for the GPU failed: {e}")))?;
+        rx.recv()
+            .map_err(|_| Error::Gpu("timestamp readback was cancelled".into()))?
+            .map_err(|e| Error::Gpu(format!("timestamp readback failed: {e}")))?;
+        let ticks: [u64; 2] = {
+            let data = slice.get_mapped_range().map_err(|e| Error::Gpu(format!("timestamp readback failed: {e}")))?;
+            bytemuck::pod_read_unaligned(&data[..16])
+        };
+        self.readback.unmap();
+        let ns = ticks[1].saturating_sub(ticks[0]) as f64 * self.period_ns;
+        Ok(Duration::from_nanos(ns as u64))
     }
 }
 

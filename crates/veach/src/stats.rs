@@ -52,7 +52,10 @@ pub struct Timings {
     pub bvh_build: f64,
     pub upload: f64,
     pub pipeline_creation: f64,
+    /// Wall clock from submit to completion, summed over dispatches.
     pub render: f64,
+    /// Summed GPU timestamps of the dispatches (null where the adapter has no timestamps).
+    pub render_gpu: Option<f64>,
 }
 
 #[derive(Serialize)]
@@ -107,6 +110,7 @@ pub fn render_stats(
             upload: setup.upload.as_secs_f64(),
             pipeline_creation: renderer.pipeline_creation.as_secs_f64(),
             render,
+            render_gpu: out.gpu_time.map(|t| t.as_secs_f64()),
         },
         samples_per_pixel: SamplesReport { requested: settings.spp, min: out.min_samples(), mean: out.mean_samples() },
         rays: out.rays,

@@ -57,7 +57,7 @@ pub struct FrameParams {
     pub light_selection: u32,
     pub light_count: u32,
     pub write_aovs: u32,
-    pub _pad0: u32,
+    pub hide_emitters: u32,
     pub _pad1: u32,
 }
 
@@ -185,7 +185,8 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             heuristic,
             light_selection,
             light_count,
-            write_aovs
+            write_aovs,
+            hide_emitters
         }),
         layout!(BvhNode { min, first, max, count }),
         layout!(TriangleVerts { p0, p1, p2 }),

@@ -1,0 +1,337 @@
+//! `veach bench`: error against run time for every strategy on a scene.
+//!
+//! For each strategy and each budget of a doubling series (camera samples per pixel, or seconds)
+//! and several seeds: render, time the render alone (GPU timestamps where the adapter has them,
+//! else wall clock around submit and wait; kernel creation and uploads excluded), and measure
+//! RMSE, relMSE and MAE against a reference. The report adds the equal-time comparison, the
+//! time each strategy needs to reach a target error and the fitted convergence slope.
+
+use crate::error::{Error, Result};
+use crate::render::{GpuScene, Heuristic, LightSelection, RenderOutput, RenderSettings, Renderer, Strategy};
+use crate::scene::Camera;
+use std::time::Duration;
+
+/// Bench renders leave out emitters seen directly: every strategy sees them through the same
+/// camera samples, so they add only pixel-coverage noise at their edges, the same for all.
+///
+/// ε in relMSE = mean (x − r)² / (r² + ε): keeps near-black reference pixels from dominating
+/// (the same regulariser as Rousselle et al., "Adaptive Sampling and Reconstruction using
+/// Greedy Error Minimization", 2011).
+pub const RELMSE_EPSILON: f64 = 1e-2;
+
+/// One strategy as the bench runs it: a few samples per camera sample, so that every strategy
+/// traces about the same number of rays per camera sample (one light chosen per light sample).
+#[derive(Clone, Debug)]
+pub struct BenchStrategy {
+    pub name: String,
+    pub strategy: Strategy,
+    pub light_samples: u32,
+    pub brdf_samples: u32,
+    pub heuristic: Heuristic,
+    pub light_selection: LightSelection,
+}
+
+pub fn default_strategies() -> Vec<BenchStrategy> {
+    let s = |name: &str, strategy, light_samples, brdf_samples, heuristic| BenchStrategy {
+        name: name.into(),
+        strategy,
+        light_samples,
+        brdf_samples,
+        heuristic,
+        light_selection: LightSelection::Power,
+    };
+    vec![
+        s("uniform", Strategy::Uniform, 0, 2, Heuristic::Balance),
+        s("brdf", Strategy::Brdf, 0, 2, Heuristic::Balance),
+        s("light", Strategy::Light, 2, 0, Heuristic::Balance),
+        s("mis-balance", Strategy::Mis, 1, 1, Heuristic::Balance),
+        s("mis-power", Strategy::Mis, 1, 1, Heuristic::Power),
+    ]
+}
+
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ErrorMetrics {
+    pub rmse: f64,
+    pub relmse: f64,
+    pub mae: f64,
+}
+
+/// Errors of `image` against `reference`, over all pixels and colour channels.
+pub fn error_metrics(image: &[[f32; 3]], reference: &[[f32; 3]]) -> ErrorMetrics {
+    let (mut se, mut rel, mut ae) = (0.0, 0.0, 0.0);
+    for (x, r) in image.iter().zip(reference) {
+        for c in 0..3 {
+            let (x, r) = (x[c] as f64, r[c] as f64);
+            let d = x - r;
+            se += d * d;
+            rel += d * d / (r * r + RELMSE_EPSILON);
+            ae += d.abs();
+        }
+    }
+    let n = (image.len() * 3).max(1) as f64;
+    ErrorMetrics { rmse: (se / n).sqrt(), relmse: rel / n, mae: ae / n }
+}
+
+pub struct Reference {
+    pub pixels: Vec<[f32; 3]>,
+    /// How it was made: a file, or "MIS at N spp".
+    pub source: String,
+    /// The reference's own expected relMSE, from its per-pixel variance (0 for a given file).
+    pub own_relmse: f64,
+}
+
+/// Renders the reference: MIS with the balance heuristic, every light sampled, 4 + 4 samples
+/// per camera sample.
+pub fn render_reference(
+    renderer: &Renderer,
+    scene: &GpuScene,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+    spp: u32,
+    progress: &mut dyn FnMut(f64) -> bool,
+) -> Result<Reference> {
+    let settings = RenderSettings {
+        width,
+        height,
+        spp,
+        strategy: Strategy::Mis,
+        light_samples: 4,
+        brdf_samples: 4,
+        heuristic: Heuristic::Balance,
+        light_selection: LightSelection::Each,
+        seed: 0x5eed,
+        hide_emitters: true,
+        ..Default::default()
+    };
+    let out = renderer.render(scene, &settings, camera, &mut |p| progress(p.fraction))?;
+    if out.interrupted {
+        return Err(Error::Options("the reference render was interrupted".into()));
+    }
+    let pixels = out.mean();
+    let own_relmse = expected_relmse(&out, &pixels);
+    Ok(Reference { pixels, source: format!("MIS 4+4, every light, {spp} spp"), own_relmse })
+}
+
+/// E[relMSE] of a render against the truth, estimated from its per-pixel variance of the mean.
+fn expected_relmse(out: &RenderOutput, mean: &[[f32; 3]]) -> f64 {
+    let var = out.variance_of_mean();
+    let mut sum = 0.0;
+    for (v, m) in var.iter().zip(mean) {
+        for c in 0..3 {
+            sum += v[c] as f64 / ((m[c] as f64).powi(2) + RELMSE_EPSILON);
+        }
+    }
+    sum / (mean.len() * 3).max(1) as f64
+}
+
+#[derive(Clone, Debug)]
+pub enum Budget {
+    Spp(u32),
+    Seconds(f64),
+}
+
+#[derive(Clone, Debug)]
+pub struct BenchRow {
+    pub scene: String,
+    pub strategy: String,
+    pub budget: String,
+    /// Mean camera samples per pixel reached.
+    pub spp: f64,
+    pub seconds: f64,
+    pub metrics: ErrorMetrics,
+    pub seed: u32,
+}
+
+impl BenchRow {
+    /// 1 / (relMSE × seconds): higher is better; constant for a finite-variance estimator.
+    pub fn efficiency(&self) -> f64 {
+        1.0 / (self.metrics.relmse * self.seconds).max(f64::MIN_POSITIVE)
+    }
+}
+
+pub fn render_settings(s: &BenchStrategy, width: u32, height: u32, budget: &Budget, seed: u32) -> RenderSettings {
+    let (spp, time_limit) = match *budget {
+        Budget::Spp(n) => (n, None),
+        Budget::Seconds(t) => (u32::MAX, Some(Duration::from_secs_f64(t))),
+    };
+    RenderSettings {
+        width,
+        height,
+        spp,
+        strategy: s.strategy,
+        light_samples: s.light_samples,
+        brdf_samples: s.brdf_samples,
+        heuristic: s.heuristic,
+        light_selection: s.light_selection,
+        seed,
+        time_limit,
+        // Short dispatches keep a time budget from overshooting.
+        dispatch_target: match budget {
+            Budget::Seconds(t) => Duration::from_secs_f64((t / 20.0).clamp(0.002, 0.15)),
+            Budget::Spp(_) => Duration::from_millis(150),
+        },
+        hide_emitters: true,
+        ..Default::default()
+    }
+}
+
+/// Render time of a bench render: GPU timestamps where there are any, else wall clock.
+pub fn render_seconds(out: &RenderOutput) -> f64 {
+    out.gpu_time.unwrap_or(out.render_time).as_secs_f64()
+}
+
+/// Renders one point of the sweep and measures it.
+#[allow(clippy::too_many_arguments)]
+pub fn measure(
+    renderer: &Renderer,
+    scene: &GpuScene,
+    camera: &Camera,
+    scene_name: &str,
+    reference: &Reference,
+    strategy: &BenchStrategy,
+    budget: &Budget,
+    seed: u32,
+    width: u32,
+    height: u32,
+) -> Result<(BenchRow, RenderOutput)> {
+    let settings = render_settings(strategy, width, height, budget, seed);
+    let out = renderer.render(scene, &settings, camera, &mut |_| true)?;
+    let metrics = error_metrics(&out.mean(), &reference.pixels);
+    let row = BenchRow {
+        scene: scene_name.into(),
+        strategy: strategy.name.clone(),
+        budget: match budget {
+            Budget::Spp(n) => format!("{n}spp"),
+            Budget::Seconds(t) => format!("{t}s"),
+        },
+        spp: out.mean_samples(),
+        seconds: render_seconds(&out),
+        metrics,
+        seed,
+    };
+    Ok((row, out))
+}
+
+/// Median, minimum and maximum.
+pub fn median_spread(values: &mut [f64]) -> (f64, f64, f64) {
+    values.sort_by(|a, b| a.total_cmp(b));
+    let n = values.len();
+    if n == 0 {
+        return (f64::NAN, f64::NAN, f64::NAN);
+    }
+    let median = if n % 2 == 1 { values[n / 2] } else { 0.5 * (values[n / 2 - 1] + values[n / 2]) };
+    (median, values[0], values[n - 1])
+}
+
+/// One strategy's curve: per budget, the median seconds and the median, min and max relMSE.
+#[derive(Clone, Debug)]
+pub struct Curve {
+    pub strategy: String,
+    pub points: Vec<CurvePoint>,
+}
+
+#[derive(Clone, Copy, Debug)]
+pub struct CurvePoint {
+    pub seconds: f64,
+    pub relmse: f64,
+    pub relmse_min: f64,
+    pub relmse_max: f64,
+    pub spp: f64,
+}
+
+pub fn curves(rows: &[BenchRow]) -> Vec<Curve> {
+    let mut out: Vec<Curve> = Vec::new();
+    for row in rows {
+        if !out.iter().any(|c| c.strategy == row.strategy) {
+            out.push(Curve { strategy: row.strategy.clone(), points: Vec::new() });
+        }
+    }
+    for curve in &mut out {
+        let mut budgets: Vec<&str> = Vec::new();
+        for r in rows.iter().filter(|r| r.strategy == curve.strategy) {
+            if !budgets.contains(&r.budget.as_str()) {
+                budgets.push(&r.budget);
+            }
+        }
+        for b in budgets {
+            let sel: Vec<&BenchRow> = rows.iter().filter(|r| r.strategy == curve.strategy && r.budget == b).collect();
+            let (seconds, _, _) = median_spread(&mut sel.iter().map(|r| r.seconds).collect::<Vec<_>>());
+            let (spp, _, _) = median_spread(&mut sel.iter().map(|r| r.spp).collect::<Vec<_>>());
+            let (relmse, lo, hi) = median_spread(&mut sel.iter().map(|r| r.metrics.relmse).collect::<Vec<_>>());
+            curve.points.push(CurvePoint { seconds, relmse, relmse_min: lo, relmse_max: hi, spp });
+        }
+    }
+    out
+}
+
+/// Least-squares line log relMSE = a + b log seconds over a curve's points: (a, b).
+/// A finite-variance estimator has slope b ≈ −1.
+pub fn fit_convergence(curve: &Curve) -> Option<(f64, f64)> {
+    let pts: Vec<(f64, f64)> = curve
+        .points
+        .iter()
+        .filter(|p| p.seconds > 0.0 && p.relmse > 0.0)
+        .map(|p| (p.seconds.ln(), p.relmse.ln()))
+        .collect();
+    if pts.len() < 2 {
+        return None;
+    }
+    let n = pts.len() as f64;
+    let (sx, sy) = pts.iter().fold((0.0, 0.0), |(a, b), p| (a + p.0, b + p.1));
+    let (mx, my) = (sx / n, sy / n);
+    let sxx: f64 = pts.iter().map(|p| (p.0 - mx) * (p.0 - mx)).sum();
+    let sxy: f64 = pts.iter().map(|p| (p.0 - mx) * (p.1 - my)).sum();
+    if sxx <= 0.0 {
+        return None;
+    }
+    let b = sxy / sxx;
+    Some((my - b * mx, b))
+}
+
+/// A slope this much shallower than −1 is reported as a sign of infinite variance.
+pub const SHALLOW_SLOPE: f64 = -0.8;
+
+/// Seconds a strategy needs to reach `target` relMSE on its fitted line, and whether that lies
+/// outside the measured range (an extrapolation).
+pub fn time_to_reach(curve: &Curve, target: f64) -> Option<(f64, bool)> {
+    let (a, b) = fit_convergence(curve)?;
+    if b >= 0.0 {
+        return None;
+    }
+    let t = ((target.ln() - a) / b).exp();
+    let (lo, hi) = curve.points.iter().fold((f64::INFINITY, 0.0f64), |(l, h), p| (l.min(p.seconds), h.max(p.seconds)));
+    Some((t, t < lo || t > hi))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn metrics_follow_their_definitions() {
+        let r = [[1.0, 0.0, 2.0], [0.5, 0.5, 0.5]];
+        let x = [[1.5, 0.1, 2.0], [0.5, 0.0, 0.5]];
+        let m = error_metrics(&x, &r);
+        let d2 = [0.25, 0.01, 0.0, 0.0, 0.25, 0.0];
+        let r2 = [1.0, 0.0, 4.0, 0.25, 0.25, 0.25];
+        assert!((m.rmse - (d2.iter().sum::<f64>() / 6.0).sqrt()).abs() < 1e-7);
+        let rel: f64 = d2.iter().zip(r2).map(|(d, r)| d / (r + RELMSE_EPSILON)).sum::<f64>() / 6.0;
+        assert!((m.relmse - rel).abs() < 1e-7);
+        assert!((m.mae - (0.5 + 0.1 + 0.5) / 6.0).abs() < 1e-7);
+    }
+
+    #[test]
+    fn a_one_over_time_curve_has_slope_minus_one() {
+        let points = [0.1, 0.2, 0.4, 0.8]
+            .iter()
+            .map(|&t| CurvePoint { seconds: t, relmse: 0.01 / t, relmse_min: 0.0, relmse_max: 0.0, spp: 0.0 })
+            .collect();
+        let c = Curve { strategy: "x".into(), points };
+        let (_, b) = fit_convergence(&c).unwrap();
+        assert!((b + 1.0).abs() < 1e-9);
+        let (t, extrapolated) = time_to_reach(&c, 0.025).unwrap();
+        assert!((t - 0.4).abs() < 1e-9 && !extrapolated);
+        assert!(time_to_reach(&c, 0.001).unwrap().1);
+    }
+}

@@ -1,0 +1,514 @@
+//! The whole `veach bench` run for one scene, and its outputs: results.csv rows, a log-log plot
+//! of relMSE against seconds, the equal-time image grid and a section of report.md.
+
+use crate::bench::*;
+use crate::error::{Error, Result};
+use crate::image_io;
+use crate::render::{GpuScene, Renderer};
+use crate::scene::Camera;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+
+pub struct BenchConfig {
+    pub width: u32,
+    pub height: u32,
+    pub budgets: Vec<Budget>,
+    pub seeds: u32,
+    pub strategies: Vec<BenchStrategy>,
+    /// Camera samples per pixel of a rendered reference.
+    pub reference_spp: u32,
+    /// A given reference image (linear EXR/PFM) instead of rendering one.
+    pub reference: Option<PathBuf>,
+    /// Time of the equal-time comparison; default: mis-balance's median time at its largest budget.
+    pub equal_time: Option<f64>,
+    pub out_dir: PathBuf,
+}
+
+/// What a scene's bench produced.
+pub struct SceneBench {
+    pub scene: String,
+    pub rows: Vec<BenchRow>,
+    pub curves: Vec<Curve>,
+    pub equal_time_seconds: f64,
+    /// Per strategy: (name, row of its equal-time render).
+    pub equal_time: Vec<BenchRow>,
+    pub reference_source: String,
+    pub reference_relmse: f64,
+    pub target_relmse: f64,
+    /// Per image region at equal time: which strategy is best and how MIS compares.
+    pub regions: Vec<RegionResult>,
+    pub report: String,
+}
+
+/// Side of the grid of image regions in the per-region comparison.
+pub const REGION_GRID: u32 = 4;
+
+#[derive(Clone, Debug)]
+pub struct RegionResult {
+    pub row: u32,
+    pub col: u32,
+    /// Strategy with the lowest median relMSE, and that median.
+    pub best: String,
+    pub best_relmse: f64,
+    pub worst: String,
+    /// mis-balance's median relMSE over the best one's.
+    pub mis_ratio: f64,
+    /// mis-balance's median lies within the best strategy's spread over seeds (or it is best).
+    pub mis_within_noise: bool,
+}
+
+/// relMSE of each REGION_GRID × REGION_GRID region, row by row.
+fn region_relmse(image: &[[f32; 3]], reference: &[[f32; 3]], w: u32, h: u32) -> Vec<f64> {
+    let mut out = Vec::new();
+    for ry in 0..REGION_GRID {
+        for rx in 0..REGION_GRID {
+            let (x0, x1) = (rx * w / REGION_GRID, (rx + 1) * w / REGION_GRID);
+            let (y0, y1) = (ry * h / REGION_GRID, (ry + 1) * h / REGION_GRID);
+            let (mut img, mut refr) = (Vec::new(), Vec::new());
+            for y in y0..y1 {
+                for x in x0..x1 {
+                    img.push(image[(y * w + x) as usize]);
+                    refr.push(reference[(y * w + x) as usize]);
+                }
+            }
+            out.push(error_metrics(&img, &refr).relmse);
+        }
+    }
+    out
+}
+
+fn region_table(strategies: &[BenchStrategy], errors: &[Vec<Vec<f64>>]) -> Vec<RegionResult> {
+    let mis = strategies.iter().position(|s| s.name == "mis-balance");
+    let n = (REGION_GRID * REGION_GRID) as usize;
+    let mut out = Vec::new();
+    for region in 0..n {
+        // Per strategy: (median, max) over seeds.
+        let stats: Vec<(f64, f64)> = errors
+            .iter()
+            .map(|seeds| {
+                let (m, _, hi) = median_spread(&mut seeds.iter().map(|e| e[region]).collect::<Vec<_>>());
+                (m, hi)
+            })
+            .collect();
+        let best = (0..stats.len()).min_by(|&a, &b| stats[a].0.total_cmp(&stats[b].0)).unwrap_or(0);
+        let worst = (0..stats.len()).max_by(|&a, &b| stats[a].0.total_cmp(&stats[b].0)).unwrap_or(0);
+        let (mis_ratio, within) = match mis {
+            Some(m) => (stats[m].0 / stats[best].0.max(f64::MIN_POSITIVE), stats[m].0 <= stats[best].1),
+            None => (f64::NAN, false),
+        };
+        out.push(RegionResult {
+            row: region as u32 / REGION_GRID,
+            col: region as u32 % REGION_GRID,
+            best: strategies[best].name.clone(),
+            best_relmse: stats[best].0,
+            worst: strategies[worst].name.clone(),
+            mis_ratio,
+            mis_within_noise: within,
+        });
+    }
+    out
+}
+
+/// Progress of a bench: (units done, units in all, what is running).
+pub type BenchProgress<'a> = &'a mut dyn FnMut(u64, u64, &str);
+
+pub fn bench_units(config: &BenchConfig) -> u64 {
+    (config.strategies.len() * (config.budgets.len() * config.seeds as usize + 1) + 1) as u64
+}
+
+#[allow(clippy::too_many_arguments)]
+pub fn bench_scene(
+    renderer: &Renderer,
+    scene: &GpuScene,
+    camera: &Camera,
+    scene_path: &Path,
+    config: &BenchConfig,
+    progress: BenchProgress,
+    units_before: u64,
+    units_total: u64,
+) -> Result<SceneBench> {
+    let name = scene_path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "scene".into());
+    let (w, h) = (config.width, config.height);
+    let mut done = units_before;
+
+    // Reference: given, cached, or rendered now.
+    let reference = match &config.reference {
+        Some(path) => {
+            let (rw, rh, pixels) = image_io::read_image(path)?;
+            if (rw, rh) != (w, h) {
+                return Err(Error::Options(format!(
+                    "{}: the reference is {rw}x{rh} but the bench renders {w}x{h}",
+                    path.display()
+                )));
+            }
+            Reference { pixels, source: path.display().to_string(), own_relmse: 0.0 }
+        }
+        None => {
+            let cache = config.out_dir.join(format!("reference-{name}-{w}x{h}-{}spp.pfm", config.reference_spp));
+            let meta = cache.with_extension("txt");
+            match (image_io::read_image(&cache), std::fs::read_to_string(&meta)) {
+                (Ok((cw, ch, pixels)), Ok(own)) if (cw, ch) == (w, h) => Reference {
+                    pixels,
+                    source: format!(
+                        "MIS 4+4, every light, {} spp (cached in {})",
+                        config.reference_spp,
+                        cache.display()
+                    ),
+                    own_relmse: own.trim().parse().unwrap_or(f64::NAN),
+                },
+                _ => {
+                    progress(done, units_total, &format!("{name}: reference, {} spp", config.reference_spp));
+                    let r = render_reference(renderer, scene, camera, w, h, config.reference_spp, &mut |_| true)?;
+                    image_io::write_image(&cache, w, h, &r.pixels, 0.0)?;
+                    image_io::write_atomically(&meta, |f| {
+                        use std::io::Write;
+                        write!(f, "{}", r.own_relmse).map_err(|e| e.to_string())
+                    })?;
+                    r
+                }
+            }
+        }
+    };
+    done += 1;
+
+    // The sweep.
+    let mut rows = Vec::new();
+    for s in &config.strategies {
+        for budget in &config.budgets {
+            for seed in 1..=config.seeds {
+                progress(done, units_total, &format!("{name}: {} {budget:?} seed {seed}", s.name));
+                let (row, _) = measure(renderer, scene, camera, &name, &reference, s, budget, seed, w, h)?;
+                rows.push(row);
+                done += 1;
+            }
+        }
+    }
+    let curves = curves(&rows);
+
+    // Equal time.
+    let equal_time_seconds = config.equal_time.unwrap_or_else(|| {
+        curves
+            .iter()
+            .find(|c| c.strategy == "mis-balance")
+            .or(curves.first())
+            .and_then(|c| c.points.last())
+            .map(|p| p.seconds)
+            .unwrap_or(1.0)
+    });
+    // Every strategy at equal time, over the seeds: whole-image rows (first seed) for the
+    // table and grid, and per-region errors of every seed for the region table.
+    let mut equal_time = Vec::new();
+    let mut images = Vec::new();
+    let mut region_errors: Vec<Vec<Vec<f64>>> = Vec::new(); // [strategy][seed][region]
+    for s in &config.strategies {
+        progress(done, units_total, &format!("{name}: {} at {equal_time_seconds:.3} s", s.name));
+        let budget = Budget::Seconds(equal_time_seconds);
+        let mut per_seed = Vec::new();
+        for seed in 1..=config.seeds {
+            let (row, out) = measure(renderer, scene, camera, &name, &reference, s, &budget, 1000 + seed, w, h)?;
+            let mean = out.mean();
+            per_seed.push(region_relmse(&mean, &reference.pixels, w, h));
+            if seed == 1 {
+                images.push((s.name.clone(), mean));
+                equal_time.push(row);
+            }
+        }
+        region_errors.push(per_seed);
+        done += 1;
+    }
+    let regions = region_table(&config.strategies, &region_errors);
+
+    // Target error: what mis-balance reaches at its largest budget.
+    let target_relmse = curves
+        .iter()
+        .find(|c| c.strategy == "mis-balance")
+        .or(curves.first())
+        .and_then(|c| c.points.last())
+        .map(|p| p.relmse)
+        .unwrap_or(f64::NAN);
+
+    let plot = config.out_dir.join(format!("{name}-relmse.svg"));
+    write_plot(&plot, &name, &curves)?;
+    let grid = config.out_dir.join(format!("{name}-equal-time.png"));
+    let crop = write_grid(&grid, w, h, &reference.pixels, &images)?;
+
+    let bench = SceneBench {
+        scene: name,
+        rows,
+        curves,
+        equal_time_seconds,
+        equal_time,
+        reference_source: reference.source.clone(),
+        reference_relmse: reference.own_relmse,
+        target_relmse,
+        regions,
+        report: String::new(),
+    };
+    let report = report_section(&bench, config, &plot, &grid, crop);
+    Ok(SceneBench { report, ..bench })
+}
+
+pub fn csv(rows: &[BenchRow]) -> String {
+    let mut s = String::from("scene,strategy,budget,spp,seconds,rmse,relmse,mae,efficiency,seed\n");
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "{},{},{},{:.3},{:.6},{:.6e},{:.6e},{:.6e},{:.6e},{}",
+            r.scene,
+            r.strategy,
+            r.budget,
+            r.spp,
+            r.seconds,
+            r.metrics.rmse,
+            r.metrics.relmse,
+            r.metrics.mae,
+            r.efficiency(),
+            r.seed
+        );
+    }
+    s
+}
+
+fn write_plot(path: &Path, scene: &str, curves: &[Curve]) -> Result<()> {
+    use plotters::prelude::*;
+    let err = |e: String| Error::Output { path: path.to_owned(), message: e };
+    let pts = curves.iter().flat_map(|c| c.points.iter());
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, 0.0f64, f64::INFINITY, 0.0f64);
+    for p in pts {
+        if p.seconds > 0.0 && p.relmse_min > 0.0 {
+            x0 = x0.min(p.seconds);
+            x1 = x1.max(p.seconds);
+            y0 = y0.min(p.relmse_min);
+            y1 = y1.max(p.relmse_max);
+        }
+    }
+    if x0 >= x1 || y0 >= y1 {
+        return Err(err("nothing to plot: no positive times or errors".into()));
+    }
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (720, 520)).into_drawing_area();
+        root.fill(&WHITE).map_err(|e| err(e.to_string()))?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(format!("{scene}: relMSE against render time"), ("sans-serif", 20))
+            .margin(15)
+            .x_label_area_size(45)
+            .y_label_area_size(70)
+            .build_cartesian_2d((x0 / 1.5..x1 * 1.5).log_scale(), (y0 / 1.5..y1 * 1.5).log_scale())
+            .map_err(|e| err(e.to_string()))?;
+        chart
+            .configure_mesh()
+            .x_desc("render seconds")
+            .y_desc("relMSE")
+            .y_label_formatter(&|v| format!("{v:.0e}"))
+            .draw()
+            .map_err(|e| err(e.to_string()))?;
+        for (i, c) in curves.iter().enumerate() {
+            let color = Palette99::pick(i).to_rgba();
+            let line: Vec<(f64, f64)> = c.points.iter().map(|p| (p.seconds, p.relmse)).collect();
+            chart
+                .draw_series(LineSeries::new(line.clone(), color.stroke_width(2)))
+                .map_err(|e| err(e.to_string()))?
+                .label(c.strategy.clone())
+                .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 20, y)], color.stroke_width(2)));
+            chart
+                .draw_series(line.iter().map(|&(x, y)| Circle::new((x, y), 3, color.filled())))
+                .map_err(|e| err(e.to_string()))?;
+            // Spread over seeds.
+            chart
+                .draw_series(
+                    c.points
+                        .iter()
+                        .map(|p| PathElement::new(vec![(p.seconds, p.relmse_min), (p.seconds, p.relmse_max)], color)),
+                )
+                .map_err(|e| err(e.to_string()))?;
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()
+            .map_err(|e| err(e.to_string()))?;
+        root.present().map_err(|e| err(e.to_string()))?;
+    }
+    image_io::write_atomically(path, |f| {
+        use std::io::Write;
+        f.write_all(svg.as_bytes()).map_err(|e| e.to_string())
+    })
+}
+
+/// The equal-time grid: a column per image (reference first, then the strategies), the full
+/// image on top and a 4× crop below, from the quarter-size window where the strategies' errors
+/// are largest. Returns the crop window (x, y, size).
+fn write_grid(
+    path: &Path,
+    w: u32,
+    h: u32,
+    reference: &[[f32; 3]],
+    images: &[(String, Vec<[f32; 3]>)],
+) -> Result<(u32, u32, u32)> {
+    let crop = (w.min(h) / 4).max(1);
+    let mut best = (0, 0, f64::NEG_INFINITY);
+    let step = (crop / 2).max(1);
+    let mut y = 0;
+    while y + crop <= h {
+        let mut x = 0;
+        while x + crop <= w {
+            let mut e = 0.0;
+            for (_, img) in images {
+                for yy in y..y + crop {
+                    for xx in x..x + crop {
+                        let i = (yy * w + xx) as usize;
+                        for c in 0..3 {
+                            let d = (img[i][c] - reference[i][c]) as f64;
+                            e += d * d / ((reference[i][c] as f64).powi(2) + RELMSE_EPSILON);
+                        }
+                    }
+                }
+            }
+            if e > best.2 {
+                best = (x, y, e);
+            }
+            x += step;
+        }
+        y += step;
+    }
+    let (cx, cy) = (best.0, best.1);
+    let gap = 4u32;
+    let columns = images.len() as u32 + 1;
+    let (gw, gh) = (columns * (w + gap) - gap, 2 * h + gap);
+    let mut grid = vec![[1.0f32; 3]; (gw * gh) as usize];
+    let all = std::iter::once(reference).chain(images.iter().map(|(_, img)| img.as_slice()));
+    for (col, img) in all.enumerate() {
+        let ox = col as u32 * (w + gap);
+        for y in 0..h {
+            for x in 0..w {
+                grid[(y * gw + ox + x) as usize] = img[(y * w + x) as usize];
+                // Crop, scaled to the image's size (nearest neighbour).
+                let sx = cx + x * crop / w;
+                let sy = cy + y * crop / h;
+                grid[((h + gap + y) * gw + ox + x) as usize] = img[(sy * w + sx) as usize];
+            }
+        }
+    }
+    image_io::write_image(path, gw, gh, &grid, 0.0)?;
+    Ok((cx, cy, crop))
+}
+
+fn report_section(b: &SceneBench, config: &BenchConfig, plot: &Path, grid: &Path, crop: (u32, u32, u32)) -> String {
+    let file = |p: &Path| p.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let mut s = String::new();
+    let _ = writeln!(s, "## {}\n", b.scene);
+    let _ = writeln!(
+        s,
+        "{}×{}, {} seed(s) per point, reference: {} (its own expected relMSE {:.2e}).\n",
+        config.width, config.height, config.seeds, b.reference_source, b.reference_relmse
+    );
+    let best_final = b.curves.iter().filter_map(|c| c.points.last().map(|p| p.relmse)).fold(f64::INFINITY, f64::min);
+    if b.reference_relmse > 0.1 * best_final {
+        let _ = writeln!(
+            s,
+            "**Warning:** the reference's own noise ({:.2e}) is not well below the smallest error measured \
+             ({best_final:.2e}); raise --reference-spp.\n",
+            b.reference_relmse
+        );
+    }
+    let _ = writeln!(s, "### Error at equal time ({:.3} s)\n", b.equal_time_seconds);
+    let _ = writeln!(s, "| strategy | spp reached | relMSE | RMSE | MAE | efficiency 1/(relMSE·s) |");
+    let _ = writeln!(s, "|---|---|---|---|---|---|");
+    let best = b.equal_time.iter().map(|r| r.metrics.relmse).fold(f64::INFINITY, f64::min);
+    for r in &b.equal_time {
+        let mark = if r.metrics.relmse == best { " **(best)**" } else { "" };
+        let _ = writeln!(
+            s,
+            "| {}{mark} | {:.1} | {:.3e} | {:.3e} | {:.3e} | {:.3e} |",
+            r.strategy,
+            r.spp,
+            r.metrics.relmse,
+            r.metrics.rmse,
+            r.metrics.mae,
+            r.efficiency()
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\n### Convergence\n\nTarget error: relMSE {:.3e} (what mis-balance reaches at its largest budget). \
+         Slope: least-squares fit of log relMSE against log seconds over the median points; about −1 \
+         for a finite-variance estimator, shallower than {SHALLOW_SLOPE} flags infinite variance.\n",
+        b.target_relmse
+    );
+    let _ = writeln!(s, "| strategy | slope | seconds to target | median relMSE at each budget |");
+    let _ = writeln!(s, "|---|---|---|---|");
+    for c in &b.curves {
+        let slope = fit_convergence(c).map(|(_, b)| b);
+        let slope_text = match slope {
+            Some(v) if v > SHALLOW_SLOPE => format!("{v:.2} ⚠ shallower than −1: infinite variance?"),
+            Some(v) => format!("{v:.2}"),
+            None => "–".into(),
+        };
+        let time = match time_to_reach(c, b.target_relmse) {
+            Some((t, true)) => format!("{t:.3} (extrapolated)"),
+            Some((t, false)) => format!("{t:.3}"),
+            None => "–".into(),
+        };
+        let per_budget: Vec<String> = c.points.iter().map(|p| format!("{:.2e}", p.relmse)).collect();
+        let _ = writeln!(s, "| {} | {slope_text} | {time} | {} |", c.strategy, per_budget.join(", "));
+    }
+    let _ = writeln!(
+        s,
+        "\n### By region, at equal time\n\nThe image cut into {g}×{g} regions; relMSE per region, median over \
+         {} seeds. mis-balance is *within noise* of the best where its median is at most the best strategy's \
+         largest error over the seeds.\n",
+        config.seeds,
+        g = REGION_GRID
+    );
+    let _ = writeln!(
+        s,
+        "| region (row, col) | best | best relMSE | worst | mis-balance / best | mis-balance within noise |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|");
+    for r in &b.regions {
+        let _ = writeln!(
+            s,
+            "| ({}, {}) | {} | {:.2e} | {} | {:.2} | {} |",
+            r.row,
+            r.col,
+            r.best,
+            r.best_relmse,
+            r.worst,
+            r.mis_ratio,
+            if r.mis_within_noise { "yes" } else { "**no**" }
+        );
+    }
+    let names: Vec<&str> = b.equal_time.iter().map(|r| r.strategy.as_str()).collect();
+    let _ = writeln!(
+        s,
+        "\n![relMSE against time]({})\n\n![equal time]({})\n\nEqual-time images, left to right: reference, {}. \
+         Bottom row: the {}×{} window at ({}, {}) where the errors are largest, enlarged.\n",
+        file(plot),
+        file(grid),
+        names.join(", "),
+        crop.2,
+        crop.2,
+        crop.0,
+        crop.1
+    );
+    s
+}
+
+/// Slope warnings for the terminal.
+pub fn slope_warnings(b: &SceneBench) -> Vec<String> {
+    b.curves
+        .iter()
+        .filter_map(|c| {
+            let (_, slope) = fit_convergence(c)?;
+            (slope > SHALLOW_SLOPE).then(|| {
+                format!(
+                    "{}: {} converges with slope {slope:.2} (shallower than −1): a sign of infinite variance",
+                    b.scene, c.strategy
+                )
+            })
+        })
+        .collect()
+}

@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# Plants known bugs in the WGSL, one at a time, in a scratch copy of the tree, and checks that
+# the test meant to catch each one fails. Prints a table; exits non-zero if a bug goes unseen.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+root=$(pwd)
+scratch=$(mktemp -d)
+trap 'rm -rf "$scratch"' EXIT
+export CARGO_TARGET_DIR="$root/target/planted-bugs"
+export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-$scratch/xdg}"
+mkdir -p -m 700 "$XDG_RUNTIME_DIR"
+
+# file | text to replace | replacement | test binary | test filter | what the bug is
+bugs=(
+  "shaders/lights.wgsl|let denom = abs(cos_light) * area;|let denom = area;|sampling|area_light|area pdf converted without cos θ_l"
+  "shaders/lights.wgsl|let denom = abs(cos_light) * area;|let denom = area;|analytic|area_and_point|(same bug, seen by the closed form)"
+  "shaders/sampling.wgsl|return max(cos_theta, 0.0) * INV_PI;|return max(cos_theta, 0.0) * 2.0 * INV_PI;|sampling|hemisphere|cosine pdf off by a factor 2"
+  "shaders/bsdf.wgsl|return smith_g1(wo.z, alpha) * ggx_d(h, alpha) / (4.0 * wo.z);|return ggx_d(h, alpha) / (4.0 * wo.z);|sampling|ggx_visible|VNDF pdf without the G1 masking term"
+  "shaders/bsdf.wgsl|return p_spec * ggx_vndf_pdf(wo, wi, p.alpha) + (1.0 - p_spec) * cosine_hemisphere_pdf(wi.z);|return 0.5 * ggx_vndf_pdf(wo, wi, p.alpha) + 0.5 * cosine_hemisphere_pdf(wi.z);|sampling|gltf_brdf|mixture pdf ignores the lobe probability"
+  "shaders/integrator.wgsl|return f * ls.value * wi.z / p_select;|return f * ls.value * wi.z / p_select * f32(frame.light_samples);|analytic|delta_light|delta light skips the 1/n (Mitsuba 3 #1861)"
+  "shaders/mis.wgsl|    let f = n_f * pdf_f;\n    let g = n_g * pdf_g;\n    if f <= 0.0 {\n        return 0.0;\n    }\n    return 1.0 / (1.0 + g / f);|    let f = pdf_f;\n    let g = pdf_g;\n    if f <= 0.0 {\n        return 0.0;\n    }\n    return 1.0 / (1.0 + g / f);|sampling|mis_weights|balance heuristic without the sample counts"
+  "shaders/lights.wgsl|return light_power_cdf[index] - lo;|return light_power_cdf[index];|sampling|light_selection|power selection pdf is the CDF, not its step"
+)
+
+printf "%-52s %-10s %-16s %s\n" bug test filter result
+status=0
+for entry in "${bugs[@]}"; do
+  IFS='|' read -r file from to test filter what <<<"$entry"
+  rm -rf "$scratch/tree" && mkdir "$scratch/tree"
+  git ls-files -z | xargs -0 -I{} cp --parents {} "$scratch/tree/"
+  python3 - "$scratch/tree/$file" "$from" "$to" <<'PY'
+import sys
+path, old, new = sys.argv[1], sys.argv[2].encode().decode("unicode_escape"), sys.argv[3].encode().decode("unicode_escape")
+text = open(path).read()
+assert old in text, f"pattern not found in {path}: {old!r}"
+open(path, "w").write(text.replace(old, new))
+PY
+  if (cd "$scratch/tree" && cargo test --release -q -p veach --test "$test" "$filter" >"$scratch/log" 2>&1); then
+    result="PASSED - bug not caught"
+    status=1
+  else
+    result="failed, as it should ($(grep -m1 -oE '[0-9]+ of [0-9]+ cases failed|[0-9]+ region\(s\) off|[0-9]+ comparison\(s\) off|panicked at [^:]+' "$scratch/log" || echo failed))"
+  fi
+  printf "%-52s %-10s %-16s %s\n" "$what" "$test" "$filter" "$result"
+done
+exit $status
