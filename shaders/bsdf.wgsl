@@ -8,7 +8,8 @@
 //                                 layer = specular_brdf(alpha))
 //   specular_brdf = V * D, alpha = roughness^2
 
-// Smallest GGX alpha: roughness 0.01. Exact mirrors (a delta BRDF) are not modelled here.
+// Smallest GGX alpha of a rough lobe: roughness 0.01. Roughness exactly 0 is a perfect mirror,
+// the limit α → 0 of the specular lobe: a delta BRDF that only BRDF sampling can reach.
 const MIN_ALPHA: f32 = 1.0e-4;
 
 struct BsdfParams {
@@ -17,11 +18,14 @@ struct BsdfParams {
     alpha: f32,
     specular: f32,
     specular_color: vec3f,
+    // The specular lobe is a delta (roughness 0).
+    delta: bool,
 }
 
 fn bsdf_params(m: Material) -> BsdfParams {
-    let alpha = max(m.roughness * m.roughness, MIN_ALPHA);
-    return BsdfParams(m.base_color, m.metallic, alpha, m.specular, m.specular_color);
+    let delta = m.roughness <= 0.0;
+    let alpha = select(max(m.roughness * m.roughness, MIN_ALPHA), 0.0, delta);
+    return BsdfParams(m.base_color, m.metallic, alpha, m.specular, m.specular_color, delta);
 }
 
 fn max3(v: vec3f) -> f32 {
@@ -83,7 +87,11 @@ fn bsdf_eval(p: BsdfParams, wo: vec3f, wi: vec3f) -> vec3f {
     }
     let h = normalize(wo + wi);
     let v_dot_h = dot(wo, h);
-    let specular_brdf = ggx_d(h, p.alpha) * smith_v_height_correlated(n_dot_l, n_dot_v, p.alpha);
+    // A delta lobe has no density off its one direction: only the diffuse part is left.
+    var specular_brdf = 0.0;
+    if !p.delta {
+        specular_brdf = ggx_d(h, p.alpha) * smith_v_height_correlated(n_dot_l, n_dot_v, p.alpha);
+    }
     let diffuse_brdf = p.base_color * INV_PI;
     // fresnel_mix (Appendix B.3.4, weighted as in KHR_materials_specular).
     let fr = dielectric_fresnel(p, v_dot_h);
@@ -136,20 +144,37 @@ fn bsdf_pdf(p: BsdfParams, wo: vec3f, wi: vec3f) -> f32 {
         return 0.0;
     }
     let p_spec = bsdf_specular_probability(p, wo);
-    return p_spec * ggx_vndf_pdf(wo, wi, p.alpha) + (1.0 - p_spec) * cosine_hemisphere_pdf(wi.z);
+    let diffuse = (1.0 - p_spec) * cosine_hemisphere_pdf(wi.z);
+    if p.delta {
+        return diffuse;
+    }
+    return p_spec * ggx_vndf_pdf(wo, wi, p.alpha) + diffuse;
 }
 
+// A sampled direction. For the delta lobe (`delta`), `pdf` is the discrete probability of
+// choosing it and `delta_reflectance` the lobe's reflectance ∫ f cos over it.
 struct BsdfSample {
     wi: vec3f,
     pdf: f32,
+    delta: bool,
+    delta_reflectance: vec3f,
+}
+
+// Reflectance of the mirror lobe at normal·wo = c: the Fresnel-weighted layer of fresnel_mix
+// and the conductor Fresnel, mixed by metallic (the α → 0 limit of the specular terms).
+fn mirror_reflectance(p: BsdfParams, c: f32) -> vec3f {
+    return mix(p.specular * dielectric_fresnel(p, c), conductor_fresnel(p, c), p.metallic);
 }
 
 // Chooses a lobe with u.x, then samples it with (u.y, u.z). pdf = 0 marks a failed sample.
 fn bsdf_sample(p: BsdfParams, wo: vec3f, u: vec3f) -> BsdfSample {
     if wo.z <= 0.0 {
-        return BsdfSample(vec3f(0.0, 0.0, 1.0), 0.0);
+        return BsdfSample(vec3f(0.0, 0.0, 1.0), 0.0, false, vec3f(0.0));
     }
     let p_spec = bsdf_specular_probability(p, wo);
+    if p.delta && u.x < p_spec {
+        return BsdfSample(vec3f(-wo.x, -wo.y, wo.z), p_spec, true, mirror_reflectance(p, wo.z));
+    }
     var wi: vec3f;
     if u.x < p_spec {
         let h = sample_ggx_vndf(wo, p.alpha, u.yz);
@@ -158,7 +183,7 @@ fn bsdf_sample(p: BsdfParams, wo: vec3f, u: vec3f) -> BsdfSample {
         wi = sample_cosine_hemisphere(u.yz);
     }
     if wi.z <= 0.0 {
-        return BsdfSample(wi, 0.0);
+        return BsdfSample(wi, 0.0, false, vec3f(0.0));
     }
-    return BsdfSample(wi, bsdf_pdf(p, wo, wi));
+    return BsdfSample(wi, bsdf_pdf(p, wo, wi), false, vec3f(0.0));
 }

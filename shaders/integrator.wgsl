@@ -154,6 +154,21 @@ fn direction_sample_contribution(c: ShadingContext, wi_world: vec3f, pdf: f32, n
     return w * f * le * wi.z / pdf;
 }
 
+// A sample of a delta (mirror) lobe: no other strategy can produce its direction, so its MIS
+// weight is 1; its value is the lobe's reflectance over the probability of choosing the lobe.
+fn delta_sample_contribution(c: ShadingContext, bs: BsdfSample, rays: ptr<function, u32>) -> vec3f {
+    let wi_world = frame_to_world(c.frame, bs.wi);
+    if bs.pdf <= 0.0 || dot(wi_world, c.s.ng) <= 0.0 {
+        return vec3f(0.0);
+    }
+    *rays += 1u;
+    let hit = trace_closest(offset_ray_origin(c.s.p, c.s.ng, wi_world), wi_world, RAY_INF);
+    if !hit.found {
+        return vec3f(0.0);
+    }
+    return bs.delta_reflectance / bs.pdf * emitted_radiance(surface_at(hit, wi_world));
+}
+
 fn estimate_brdf_sampling(c: ShadingContext, use_mis: bool, rng: ptr<function, u32>, rays: ptr<function, u32>) -> vec3f {
     if frame.brdf_samples == 0u {
         return vec3f(0.0);
@@ -163,7 +178,11 @@ fn estimate_brdf_sampling(c: ShadingContext, use_mis: bool, rng: ptr<function, u
     for (var k = 0u; k < frame.brdf_samples; k++) {
         let u = vec3f(rng_next(rng), rng_next2(rng));
         let bs = bsdf_sample(c.bsdf, c.wo, u);
-        sum += direction_sample_contribution(c, frame_to_world(c.frame, bs.wi), bs.pdf, n, use_mis, rays);
+        if bs.delta {
+            sum += delta_sample_contribution(c, bs, rays);
+        } else {
+            sum += direction_sample_contribution(c, frame_to_world(c.frame, bs.wi), bs.pdf, n, use_mis, rays);
+        }
     }
     return sum / n;
 }

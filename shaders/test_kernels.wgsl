@@ -75,7 +75,9 @@ fn run_test(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) 
         case TEST_SAMPLE_BSDF: {
             let s = bsdf_sample(p, wo, u);
             var weight = 0.0;
-            if s.pdf > 0.0 {
+            if s.delta {
+                weight = max3(s.delta_reflectance / s.pdf);
+            } else if s.pdf > 0.0 {
                 weight = max3(bsdf_eval(p, wo, s.wi) * s.wi.z / s.pdf);
             }
             write_sample(i, s.wi, s.pdf, bsdf_pdf(p, wo, s.wi), weight);

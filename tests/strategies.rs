@@ -211,3 +211,55 @@ fn mis_variants_agree_on_the_veach_mis_scene() {
         ],
     );
 }
+
+/// A dielectric mirror (roughness 0: a delta specular lobe over a diffuse base) and a metal
+/// mirror under an area light. Only BRDF sampling reaches the delta lobe, so BRDF sampling and
+/// every MIS variant must agree; light and uniform sampling see the diffuse part alone.
+#[test]
+fn brdf_and_mis_agree_on_perfect_mirrors() {
+    use glam::{Mat4, Vec3};
+    use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
+    let mut g = GltfBuilder::new();
+    let metal = g.material(&MaterialDesc::metal("mirror", Vec3::new(0.9, 0.8, 0.6), 0.0));
+    let glossy = g.material(&MaterialDesc {
+        roughness: 0.0,
+        specular: 1.0,
+        ..MaterialDesc::lambert("lacquer", Vec3::new(0.4, 0.1, 0.1))
+    });
+    let light = g.material(&MaterialDesc::emitter("light", Vec3::new(6.0, 6.0, 5.0)));
+    let quad = |x0: f32, x1: f32| {
+        MeshData::quad(
+            Vec3::new(x0, 0., -2.),
+            Vec3::new(x1, 0., -2.),
+            Vec3::new(x1, 0., 2.),
+            Vec3::new(x0, 0., 2.),
+            Vec3::Y,
+        )
+    };
+    g.add_mesh("metal mirror", &quad(-2.0, 0.0), metal, Mat4::IDENTITY);
+    g.add_mesh("lacquer", &quad(0.0, 2.0), glossy, Mat4::IDENTITY);
+    // A wall of light behind the floor: the mirrors reflect it.
+    let l = MeshData::quad(
+        Vec3::new(-3.0, 0.0, -3.0),
+        Vec3::new(3.0, 0.0, -3.0),
+        Vec3::new(3.0, 2.5, -3.0),
+        Vec3::new(-3.0, 2.5, -3.0),
+        Vec3::Z,
+    );
+    g.add_mesh("light", &l, light, Mat4::IDENTITY);
+    g.camera("camera", Vec3::new(0.0, 1.0, 2.6), Vec3::new(0.0, 0.0, -0.6), 50.0);
+    let path = output_dir("scenes").join("mirrors.gltf");
+    g.write(&path).unwrap();
+    check_scene(
+        path.to_str().unwrap(),
+        24,
+        24,
+        6,
+        config("reference", Strategy::Mis, 256, 4, 4, Each, Balance),
+        &[
+            config("brdf", Strategy::Brdf, 64, 0, 16, Each, Balance),
+            config("mis-balance", Strategy::Mis, 64, 2, 2, Each, Balance),
+            config("mis-power", Strategy::Mis, 64, 4, 4, Power, PowerHeuristic),
+        ],
+    );
+}
