@@ -2,9 +2,11 @@
 # Makes sure wgpu finds a Vulkan driver: on a Debian/Ubuntu machine without one (no GPU
 # driver, as in CI), installs Mesa's software Vulkan, lavapipe. Safe to run again.
 set -euo pipefail
-if ls /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json >/dev/null 2>&1; then
-    exit 0
-fi
+for icd in /usr/share/vulkan/icd.d/*.json /etc/vulkan/icd.d/*.json; do
+    if [ -e "$icd" ]; then
+        exit 0
+    fi
+done
 sudo=""
 if [ "$(id -u)" != 0 ]; then sudo="sudo"; fi
 echo "No Vulkan driver found: installing Mesa's software Vulkan (mesa-vulkan-drivers)..." >&2
