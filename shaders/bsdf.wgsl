@@ -23,7 +23,7 @@ struct BsdfParams {
 }
 
 fn bsdf_params(m: Material) -> BsdfParams {
-    let delta = m.roughness <= 0.0;
+    let delta = HAS_MIRRORS && m.roughness <= 0.0;
     let alpha = select(max(m.roughness * m.roughness, MIN_ALPHA), 0.0, delta);
     return BsdfParams(m.base_color, m.metallic, alpha, m.specular, m.specular_color, delta);
 }
@@ -88,8 +88,9 @@ fn bsdf_eval(p: BsdfParams, wo: vec3f, wi: vec3f) -> vec3f {
     let h = normalize(wo + wi);
     let v_dot_h = dot(wo, h);
     // A delta lobe has no density off its one direction: only the diffuse part is left.
+    // Without glossy materials every specular weight is 0 and the lobe is not evaluated.
     var specular_brdf = 0.0;
-    if !p.delta {
+    if HAS_GLOSSY && !p.delta {
         specular_brdf = ggx_d(h, p.alpha) * smith_v_height_correlated(n_dot_l, n_dot_v, p.alpha);
     }
     let diffuse_brdf = p.base_color * INV_PI;
@@ -145,7 +146,7 @@ fn bsdf_pdf(p: BsdfParams, wo: vec3f, wi: vec3f) -> f32 {
     }
     let p_spec = bsdf_specular_probability(p, wo);
     let diffuse = (1.0 - p_spec) * cosine_hemisphere_pdf(wi.z);
-    if p.delta {
+    if !HAS_GLOSSY || p.delta {
         return diffuse;
     }
     return p_spec * ggx_vndf_pdf(wo, wi, p.alpha) + diffuse;
@@ -176,7 +177,7 @@ fn bsdf_sample(p: BsdfParams, wo: vec3f, u: vec3f) -> BsdfSample {
         return BsdfSample(vec3f(-wo.x, -wo.y, wo.z), p_spec, true, mirror_reflectance(p, wo.z));
     }
     var wi: vec3f;
-    if u.x < p_spec {
+    if HAS_GLOSSY && u.x < p_spec {
         let h = sample_ggx_vndf(wo, p.alpha, u.yz);
         wi = reflect(-wo, h);
     } else {

@@ -58,6 +58,9 @@ fn surface_at(hit: Hit, ray_dir: vec3f) -> SurfaceHit {
 
 // Radiance a hit surface emits back along the ray: one-sided unless the material is doubleSided.
 fn emitted_radiance(s: SurfaceHit) -> vec3f {
+    if !HAS_AREA_LIGHTS {
+        return vec3f(0.0);
+    }
     let m = materials[s.material];
     if s.front_face || m.double_sided != 0u {
         return m.emission;
@@ -90,7 +93,7 @@ fn light_sample_contribution(c: ShadingContext, index: u32, p_select: f32, use_m
     if trace_occluded(origin, ls.wi, t_max) {
         return vec3f(0.0);
     }
-    if ls.is_delta {
+    if HAS_DELTA_LIGHTS && ls.is_delta {
         // A delta light has no density to weigh against: MIS weight 1.
         return f * ls.value * wi.z / p_select;
     }
@@ -146,7 +149,7 @@ fn direction_sample_contribution(c: ShadingContext, wi_world: vec3f, pdf: f32, n
         return vec3f(0.0);
     }
     var w = 1.0;
-    if use_mis && e.light != NO_LIGHT && frame.light_samples > 0u {
+    if HAS_AREA_LIGHTS && use_mis && e.light != NO_LIGHT && frame.light_samples > 0u {
         let v = tri_verts[hit.tri];
         let p_light = area_light_pdf(e.light, c.s.p, e.p, triangle_normal(v));
         w = mis_weight(n_samples, pdf, f32(frame.light_samples), p_light);
@@ -178,7 +181,7 @@ fn estimate_brdf_sampling(c: ShadingContext, use_mis: bool, rng: ptr<function, u
     for (var k = 0u; k < frame.brdf_samples; k++) {
         let u = vec3f(rng_next(rng), rng_next2(rng));
         let bs = bsdf_sample(c.bsdf, c.wo, u);
-        if bs.delta {
+        if HAS_MIRRORS && bs.delta {
             sum += delta_sample_contribution(c, bs, rays);
         } else {
             sum += direction_sample_contribution(c, frame_to_world(c.frame, bs.wi), bs.pdf, n, use_mis, rays);
@@ -222,7 +225,7 @@ fn estimate_radiance(ray: Ray, rng: ptr<function, u32>, rays: ptr<function, u32>
     if frame.hide_emitters == 0u {
         e.emitted = emitted_radiance(s);
     }
-    switch frame.strategy {
+    switch active_strategy() {
         case STRATEGY_UNIFORM: {
             e.brdf = estimate_uniform_sampling(c, rng, rays);
         }
@@ -253,7 +256,8 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
     var count = counters[pixel];
     var sum_light = vec4f(0.0);
     var sum_brdf = vec4f(0.0);
-    if frame.write_aovs != 0u {
+    let write_aovs = HAS_AOVS && frame.write_aovs != 0u;
+    if write_aovs {
         sum_light = aov_light[pixel];
         sum_brdf = aov_brdf[pixel];
     }
@@ -279,7 +283,7 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
     accum[pixel] = sum;
     accum_sq[pixel] = sum_sq;
     counters[pixel] = count;
-    if frame.write_aovs != 0u {
+    if write_aovs {
         aov_light[pixel] = sum_light;
         aov_brdf[pixel] = sum_brdf;
     }

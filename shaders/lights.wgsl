@@ -130,10 +130,13 @@ fn sample_delta_light(light: Light, x: vec3f) -> LightSample {
 // Sample light `index` from x; the returned pdf excludes the selection probability.
 fn sample_light(index: u32, x: vec3f, u: vec3f) -> LightSample {
     let light = lights[index];
-    if light.kind == LIGHT_AREA {
+    if HAS_AREA_LIGHTS && light.kind == LIGHT_AREA {
         return sample_area_light(light, x, u);
     }
-    return sample_delta_light(light, x);
+    if HAS_DELTA_LIGHTS {
+        return sample_delta_light(light, x);
+    }
+    return LightSample(vec3f(0.0, 0.0, 1.0), 0.0, vec3f(0.0), 0.0, false);
 }
 
 // Solid-angle pdf with which the light strategy (selection included) would have produced the

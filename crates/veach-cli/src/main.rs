@@ -144,6 +144,9 @@ struct RenderArgs {
     /// Print nothing but errors
     #[arg(short, long)]
     quiet: bool,
+    /// Use the generic kernel instead of one specialised to the scene's features and strategy
+    #[arg(long)]
+    no_specialise: bool,
 }
 
 #[derive(clap::Args)]
@@ -286,6 +289,7 @@ fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
         seed: args.seed,
         time_limit,
         write_aovs: !args.aov.is_empty(),
+        specialise: !args.no_specialise,
         ..Default::default()
     })
 }
@@ -333,6 +337,11 @@ fn render(args: RenderArgs) -> Result<()> {
     say(format!("adapter: {}", gpu.describe()));
     let renderer = Renderer::new(gpu)?;
     let gpu_scene = renderer.upload_scene(&scene)?;
+    say(format!(
+        "scene features: {}; kernel: {}",
+        gpu_scene.features.describe(),
+        if settings.specialise { "specialised" } else { "generic" }
+    ));
 
     let stop = Arc::new(AtomicBool::new(false));
     {
@@ -553,6 +562,7 @@ fn info(path: &Path) -> Result<()> {
         };
         println!("    {} ({kind})", l.name);
     }
+    println!("  features: {}", veach::features::SceneFeatures::detect(&scene).describe());
     println!("  cameras: {}", scene.cameras.len());
     for c in &scene.cameras {
         println!("    '{}' at {:?}, yfov {:.1}°", c.name, c.position.to_array(), c.yfov.to_degrees());

@@ -4,7 +4,7 @@
 use crate::bench::*;
 use crate::error::{Error, Result};
 use crate::image_io;
-use crate::render::{GpuScene, Renderer};
+use crate::render::{GpuScene, RenderSettings, Renderer};
 use crate::scene::Camera;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -37,7 +37,55 @@ pub struct SceneBench {
     pub target_relmse: f64,
     /// Per image region at equal time: which strategy is best and how MIS compares.
     pub regions: Vec<RegionResult>,
+    pub kernels: KernelComparison,
     pub report: String,
+}
+
+/// The specialised kernel against the generic one for mis-balance, measured in one run.
+#[derive(Clone, Debug)]
+pub struct KernelComparison {
+    pub features: String,
+    pub generic_creation: f64,
+    pub specialised_creation: f64,
+    /// Median render seconds over the seeds at the largest budget.
+    pub generic_render: f64,
+    pub specialised_render: f64,
+}
+
+fn compare_kernels(
+    renderer: &Renderer,
+    scene: &GpuScene,
+    camera: &Camera,
+    config: &BenchConfig,
+) -> Result<KernelComparison> {
+    let s = config.strategies.iter().find(|s| s.name == "mis-balance").unwrap_or(&config.strategies[0]);
+    let budget = config.budgets.last().cloned().unwrap_or(Budget::Spp(1));
+    // Fresh renderers: empty kernel caches, so the first render of each creates its kernel.
+    let mut creation = [0.0; 2];
+    let mut times: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
+    for (k, specialise) in [false, true].into_iter().enumerate() {
+        let fresh = Renderer::new(renderer.gpu.clone())?;
+        let tiny =
+            RenderSettings { width: 1, height: 1, spp: 1, specialise, ..render_settings(s, 1, 1, &Budget::Spp(1), 1) };
+        creation[k] = fresh.render(scene, &tiny, camera, &mut |_| true)?.kernel_creation.as_secs_f64();
+    }
+    // Alternate the two kernels so that drift in the machine's speed hits both alike.
+    for seed in 1..=config.seeds {
+        for (k, specialise) in [false, true].into_iter().enumerate() {
+            let settings =
+                RenderSettings { specialise, ..render_settings(s, config.width, config.height, &budget, seed) };
+            let out = renderer.render(scene, &settings, camera, &mut |_| true)?;
+            times[k].push(render_seconds(&out));
+        }
+    }
+    let [g, sp] = times;
+    Ok(KernelComparison {
+        features: scene.features.describe(),
+        generic_creation: creation[0],
+        specialised_creation: creation[1],
+        generic_render: median_spread(&mut g.clone()).0,
+        specialised_render: median_spread(&mut sp.clone()).0,
+    })
 }
 
 /// Side of the grid of image regions in the per-region comparison.
@@ -113,7 +161,7 @@ fn region_table(strategies: &[BenchStrategy], errors: &[Vec<Vec<f64>>]) -> Vec<R
 pub type BenchProgress<'a> = &'a mut dyn FnMut(u64, u64, &str);
 
 pub fn bench_units(config: &BenchConfig) -> u64 {
-    (config.strategies.len() * (config.budgets.len() * config.seeds as usize + 1) + 1) as u64
+    (config.strategies.len() * (config.budgets.len() * config.seeds as usize + 1) + 2) as u64
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -227,6 +275,10 @@ pub fn bench_scene(
         .map(|p| p.relmse)
         .unwrap_or(f64::NAN);
 
+    // Specialised against generic kernel: creation (fresh kernel caches) and render time.
+    progress(done, units_total, &format!("{name}: specialised against generic kernel"));
+    let kernels = compare_kernels(renderer, scene, camera, config)?;
+
     let plot = config.out_dir.join(format!("{name}-relmse.svg"));
     write_plot(&plot, &name, &curves)?;
     let grid = config.out_dir.join(format!("{name}-equal-time.png"));
@@ -242,6 +294,7 @@ pub fn bench_scene(
         reference_relmse: reference.own_relmse,
         target_relmse,
         regions,
+        kernels,
         report: String::new(),
     };
     let report = report_section(&bench, config, &plot, &grid, crop);
@@ -481,6 +534,24 @@ fn report_section(b: &SceneBench, config: &BenchConfig, plot: &Path, grid: &Path
             if r.mis_within_noise { "yes" } else { "**no**" }
         );
     }
+    let k = &b.kernels;
+    let _ = writeln!(
+        s,
+        "\n### Specialised against generic kernel\n\nmis-balance at the largest budget, median of {} seeds, \
+         both kernels in one run. Scene features: {}. Kernel creation includes the driver's compile \
+         at the first dispatch; Mesa's on-disk shader cache, when warm, shortens it.\n",
+        config.seeds, k.features
+    );
+    let _ = writeln!(s, "| kernel | creation s | render s |");
+    let _ = writeln!(s, "|---|---|---|");
+    let _ = writeln!(s, "| generic | {:.3} | {:.3} |", k.generic_creation, k.generic_render);
+    let _ = writeln!(s, "| specialised | {:.3} | {:.3} |", k.specialised_creation, k.specialised_render);
+    let _ = writeln!(
+        s,
+        "| specialised / generic | {:.2} | {:.2} |",
+        k.specialised_creation / k.generic_creation,
+        k.specialised_render / k.generic_render
+    );
     let names: Vec<&str> = b.equal_time.iter().map(|r| r.strategy.as_str()).collect();
     let _ = writeln!(
         s,

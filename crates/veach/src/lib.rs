@@ -9,6 +9,7 @@ pub mod bench;
 pub mod bench_run;
 pub mod bvh;
 pub mod error;
+pub mod features;
 pub mod gpu;
 pub mod image_io;
 pub mod render;

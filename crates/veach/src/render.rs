@@ -4,16 +4,19 @@
 
 use crate::bvh::build_bvh;
 use crate::error::{Error, Result};
+use crate::features::{KernelKey, SceneFeatures};
 use crate::gpu::bindings;
 use crate::gpu::context::GpuContext;
 use crate::gpu::layout::{self, FrameParams, PixelCounters, WORKGROUP_SIZE};
 use crate::gpu::scene_buffers::{SceneArrays, build_scene_arrays};
 use crate::scene::{Camera, Scene};
 use crate::shaders;
+use std::collections::HashMap;
+use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 use wgpu::util::DeviceExt;
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Strategy {
     Uniform,
     Brdf,
@@ -83,6 +86,8 @@ pub struct RenderSettings {
     pub write_aovs: bool,
     /// Leave out emission seen directly by camera rays: the image is reflected direct light only.
     pub hide_emitters: bool,
+    /// Use a kernel specialised to the scene's features and the strategy (else the generic one).
+    pub specialise: bool,
 }
 
 impl Default for RenderSettings {
@@ -102,6 +107,7 @@ impl Default for RenderSettings {
             dispatch_target: Duration::from_millis(150),
             write_aovs: false,
             hide_emitters: false,
+            specialise: true,
         }
     }
 }
@@ -146,6 +152,10 @@ pub struct RenderOutput {
     pub render_time: Duration,
     /// The dispatches' time by GPU timestamps, where the adapter has timestamp queries.
     pub gpu_time: Option<Duration>,
+    /// The kernel that rendered, and the time spent creating it for this render (zero when it
+    /// was cached).
+    pub kernel: KernelKey,
+    pub kernel_creation: Duration,
     pub dispatches: u32,
     /// Stopped by the callback (Ctrl-C) before the budget was spent.
     pub interrupted: bool,
@@ -228,15 +238,24 @@ pub struct GpuScene {
     pub(crate) buffers: Vec<wgpu::Buffer>,
     pub(crate) light_count: u32,
     pub stats: SceneUploadStats,
+    /// What the scene needs of the kernel.
+    pub features: SceneFeatures,
 }
 
-/// The compiled kernel on a device. One renderer renders any number of scenes.
+/// A compiled kernel and its bind group layout. Creating one includes the driver's compile,
+/// which lavapipe does at the first dispatch; `Renderer::render` reports it as
+/// `RenderOutput::kernel_creation`, outside the render time.
+struct Kernel {
+    pipeline: wgpu::ComputePipeline,
+    layout: wgpu::BindGroupLayout,
+}
+
+/// The kernels on a device: the generic one, compiled up front, and the ones specialised to a
+/// scene's features and a strategy (`features::KernelKey`), compiled at first use and cached,
+/// so that switching back to a strategy used before compiles nothing.
 pub struct Renderer {
     pub gpu: GpuContext,
-    pipeline: wgpu::ComputePipeline,
-    bind_group_layout: wgpu::BindGroupLayout,
-    /// Kernel compilation, including the driver's compile at the first dispatch.
-    pub pipeline_creation: Duration,
+    kernels: Mutex<HashMap<KernelKey, Arc<Kernel>>>,
 }
 
 fn storage_buffer<T: bytemuck::Pod + Default>(device: &wgpu::Device, label: &str, data: &[T]) -> wgpu::Buffer {
@@ -251,26 +270,34 @@ fn storage_buffer<T: bytemuck::Pod + Default>(device: &wgpu::Device, label: &str
 }
 
 impl Renderer {
-    /// Compiles the kernel.
+    /// A renderer on `gpu`. Kernels are compiled when a render first needs them.
     pub fn new(gpu: GpuContext) -> Result<Renderer> {
-        let start = Instant::now();
-        let (pipeline, bind_group_layout) = bindings::create_pipeline(
-            &gpu.device,
+        Ok(Renderer { gpu, kernels: Mutex::new(HashMap::new()) })
+    }
+
+    /// The kernel for `key`, compiled now if it is not cached (and then also dispatched once,
+    /// empty, since drivers such as lavapipe compile at the first dispatch).
+    fn kernel(&self, key: KernelKey) -> Result<(Arc<Kernel>, bool)> {
+        if let Some(k) = self.kernels.lock().expect("kernel cache").get(&key) {
+            return Ok((k.clone(), false));
+        }
+        let (pipeline, layout) = bindings::create_pipeline(
+            &self.gpu.device,
             "veach render kernel",
             shaders::render_kernel_source(),
             shaders::RENDER_ENTRY_POINT,
             false,
+            &key.constants(),
         )
         .map_err(Error::Gpu)?;
-        let mut renderer = Renderer { gpu, pipeline, bind_group_layout, pipeline_creation: Duration::ZERO };
-        // Drivers such as lavapipe compile at the first dispatch: do it here, so that render
-        // times measure rendering only.
-        let empty = renderer.upload_scene(&Scene::default())?;
-        let settings = RenderSettings { width: 1, height: 1, spp: 1, ..Default::default() };
-        let camera = Camera::look_at("warm-up", glam::Vec3::Z, glam::Vec3::ZERO, glam::Vec3::Y, 1.0);
-        renderer.render(&empty, &settings, &camera, &mut |_| true)?;
-        renderer.pipeline_creation = start.elapsed();
-        Ok(renderer)
+        let kernel = Arc::new(Kernel { pipeline, layout });
+        self.kernels.lock().expect("kernel cache").insert(key, kernel.clone());
+        Ok((kernel, true))
+    }
+
+    /// Kernels compiled so far.
+    pub fn cached_kernels(&self) -> usize {
+        self.kernels.lock().expect("kernel cache").len()
     }
 
     /// Builds the BVH and uploads the scene.
@@ -312,7 +339,7 @@ impl Renderer {
         ];
         stats.gpu_scene_bytes = buffers.iter().map(|b| b.size()).sum();
         stats.upload = upload_start.elapsed();
-        Ok(GpuScene { buffers, light_count: scene.lights.len() as u32, stats })
+        Ok(GpuScene { buffers, light_count: scene.lights.len() as u32, stats, features: SceneFeatures::detect(scene) })
     }
 
     /// The bind group of a dispatch, in the binding order of `gpu::bindings`: frame parameters,
@@ -425,11 +452,32 @@ impl Renderer {
         });
 
         let outputs = [&accum, &accum_sq, &counters, &aov_light, &aov_brdf];
-        let bind_group = self.bind_group(&self.bind_group_layout, &params_buffer, scene, &outputs, &[]);
+        let key =
+            if settings.specialise { KernelKey::specialised(&scene.features, settings) } else { KernelKey::generic() };
+        let creation_start = Instant::now();
+        let (kernel, created) = self.kernel(key)?;
+        let bind_group = self.bind_group(&kernel.layout, &params_buffer, scene, &outputs, &[]);
+        let mut params = self.frame_params(scene.light_count, settings, camera);
+        if created {
+            // An empty dispatch (no rows): the driver compiles the kernel here.
+            params.row_count = 0;
+            queue.write_buffer(&params_buffer, 0, bytemuck::bytes_of(&params));
+            let mut encoder = device.create_command_encoder(&Default::default());
+            {
+                let mut pass = encoder.begin_compute_pass(&Default::default());
+                pass.set_pipeline(&kernel.pipeline);
+                pass.set_bind_group(0, &bind_group, &[]);
+                pass.dispatch_workgroups(1, 1, 1);
+            }
+            queue.submit([encoder.finish()]);
+            device
+                .poll(wgpu::PollType::wait_indefinitely())
+                .map_err(|e| Error::Gpu(format!("waiting for the GPU failed: {e}")))?;
+        }
+        let kernel_creation = if created { creation_start.elapsed() } else { Duration::ZERO };
         // Timestamps at the start and end of every dispatch, where the adapter has them.
         let timer = self.gpu.has_timestamps.then(|| GpuTimer::new(device, queue));
 
-        let mut params = self.frame_params(scene.light_count, settings, camera);
         let total_pixel_samples = pixels * settings.spp as u64;
         let mut done: u64 = 0;
         let mut sample_start: u32 = 0;
@@ -472,7 +520,7 @@ impl Renderer {
                     label: Some("render"),
                     timestamp_writes: timer.as_ref().map(GpuTimer::writes),
                 });
-                pass.set_pipeline(&self.pipeline);
+                pass.set_pipeline(&kernel.pipeline);
                 pass.set_bind_group(0, &bind_group, &[]);
                 pass.dispatch_workgroups(w.div_ceil(WORKGROUP_SIZE.0), rows.div_ceil(WORKGROUP_SIZE.1), 1);
             }
@@ -530,6 +578,8 @@ impl Renderer {
             nonfinite_samples: counts.iter().map(|c| c.nonfinite as u64).sum(),
             render_time,
             gpu_time: timer.is_some().then_some(gpu_time),
+            kernel: key,
+            kernel_creation,
             dispatches,
             interrupted,
         })

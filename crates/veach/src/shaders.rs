@@ -3,6 +3,7 @@
 /// The shader files in the order they are joined. Later files use what earlier ones declare.
 pub const SHADER_FILES: &[(&str, &str)] = &[
     ("layout.wgsl", include_str!("../../../shaders/layout.wgsl")),
+    ("features.wgsl", include_str!("../../../shaders/features.wgsl")),
     ("rng.wgsl", include_str!("../../../shaders/rng.wgsl")),
     ("sampling.wgsl", include_str!("../../../shaders/sampling.wgsl")),
     ("camera.wgsl", include_str!("../../../shaders/camera.wgsl")),

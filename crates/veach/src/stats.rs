@@ -11,6 +11,9 @@ pub struct RenderStats {
     pub device_type: String,
     pub scene: SceneCounts,
     pub settings: SettingsReport,
+    /// What the scene needs, and the kernel's specialisation.
+    pub features: crate::features::SceneFeatures,
+    pub kernel: String,
     pub timings_seconds: Timings,
     pub samples_per_pixel: SamplesReport,
     pub rays: u64,
@@ -93,6 +96,12 @@ pub fn render_stats(
             bvh_sah_cost: setup.bvh_sah_cost,
             gpu_scene_bytes: setup.gpu_scene_bytes,
         },
+        features: gpu_scene.features,
+        kernel: if out.kernel == crate::features::KernelKey::generic() {
+            "generic".into()
+        } else {
+            format!("specialised {:?}", out.kernel)
+        },
         settings: SettingsReport {
             width: settings.width,
             height: settings.height,
@@ -108,7 +117,7 @@ pub fn render_stats(
             load: load_seconds,
             bvh_build: setup.bvh_build.as_secs_f64(),
             upload: setup.upload.as_secs_f64(),
-            pipeline_creation: renderer.pipeline_creation.as_secs_f64(),
+            pipeline_creation: out.kernel_creation.as_secs_f64(),
             render,
             render_gpu: out.gpu_time.map(|t| t.as_secs_f64()),
         },

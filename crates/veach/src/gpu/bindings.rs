@@ -48,6 +48,7 @@ pub fn create_pipeline(
     source: String,
     entry_point: &str,
     with_test_io: bool,
+    constants: &[(&str, f64)],
 ) -> Result<(wgpu::ComputePipeline, wgpu::BindGroupLayout), String> {
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
     let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -68,7 +69,7 @@ pub fn create_pipeline(
         layout: Some(&pipeline_layout),
         module: &module,
         entry_point: Some(entry_point),
-        compilation_options: Default::default(),
+        compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
         cache: None,
     });
     if let Some(e) = pollster::block_on(scope.pop()) {

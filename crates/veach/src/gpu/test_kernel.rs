@@ -41,6 +41,7 @@ impl<'a> TestKernel<'a> {
             shaders::test_kernel_source(),
             shaders::TEST_ENTRY_POINT,
             true,
+            &[],
         )
         .map_err(Error::Gpu)?;
         Ok(TestKernel { renderer, pipeline, layout })

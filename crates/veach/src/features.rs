@@ -1,0 +1,129 @@
+//! Scene features, detected on load, and the kernel key they give: the set of WGSL override
+//! constants (`shaders/features.wgsl`) that specialise the kernel to one scene and strategy.
+
+use crate::render::{RenderSettings, Strategy};
+use crate::scene::{LightKind, Scene};
+use serde::Serialize;
+
+/// What a scene contains that the kernel may need code for.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize)]
+pub struct SceneFeatures {
+    pub area_lights: bool,
+    pub point_lights: bool,
+    pub spot_lights: bool,
+    pub directional_lights: bool,
+    /// Exactly one light.
+    pub single_light: bool,
+    /// Every material that triangles use is Lambertian (metallic 0, specular 0).
+    pub all_diffuse: bool,
+    /// Some used material has metallic > 0.
+    pub any_metal: bool,
+    /// Some used material has a GGX lobe (metallic > 0 or specular > 0).
+    pub any_glossy: bool,
+    /// Some used material is a perfect mirror (roughness 0).
+    pub any_mirror: bool,
+    pub double_sided_emitters: bool,
+    /// Textures in use (none are read yet).
+    pub textures: bool,
+}
+
+impl SceneFeatures {
+    pub fn detect(scene: &Scene) -> SceneFeatures {
+        let mut used = vec![false; scene.materials.len()];
+        for t in &scene.triangles {
+            used[t.material as usize] = true;
+        }
+        let materials = || scene.materials.iter().zip(&used).filter(|(_, u)| **u).map(|(m, _)| m);
+        let glossy = |m: &&crate::scene::Material| m.metallic > 0.0 || m.specular > 0.0;
+        let has = |f: fn(&LightKind) -> bool| scene.lights.iter().any(|l| f(&l.kind));
+        SceneFeatures {
+            area_lights: has(|k| matches!(k, LightKind::Area { .. })),
+            point_lights: has(|k| matches!(k, LightKind::Point { .. })),
+            spot_lights: has(|k| matches!(k, LightKind::Spot { .. })),
+            directional_lights: has(|k| matches!(k, LightKind::Directional { .. })),
+            single_light: scene.lights.len() == 1,
+            all_diffuse: !materials().any(|m| glossy(&m)),
+            any_metal: materials().any(|m| m.metallic > 0.0),
+            any_glossy: materials().any(|m| glossy(&m)),
+            any_mirror: materials().any(|m| glossy(&m) && m.roughness <= 0.0),
+            double_sided_emitters: has(|k| matches!(k, LightKind::Area { double_sided: true, .. })),
+            textures: false,
+        }
+    }
+
+    pub fn delta_lights(&self) -> bool {
+        self.point_lights || self.spot_lights || self.directional_lights
+    }
+
+    /// "area lights, point lights, glossy, 1 light"
+    pub fn describe(&self) -> String {
+        let mut parts = Vec::new();
+        let mut add = |on: bool, name: &str| {
+            if on {
+                parts.push(name.to_owned())
+            }
+        };
+        add(self.area_lights, "area lights");
+        add(self.point_lights, "point lights");
+        add(self.spot_lights, "spot lights");
+        add(self.directional_lights, "directional lights");
+        add(self.single_light, "one light");
+        add(self.all_diffuse, "all diffuse");
+        add(self.any_glossy, "glossy");
+        add(self.any_metal, "metal");
+        add(self.any_mirror, "mirrors");
+        add(self.double_sided_emitters, "double-sided emitters");
+        add(self.textures, "textures");
+        if parts.is_empty() { "nothing to light".into() } else { parts.join(", ") }
+    }
+}
+
+/// The override constants of one kernel. `KernelKey::generic()` is the kernel for everything.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct KernelKey {
+    /// A fixed strategy, or None to read it at run time.
+    pub strategy: Option<Strategy>,
+    pub area_lights: bool,
+    pub delta_lights: bool,
+    pub glossy: bool,
+    pub mirrors: bool,
+    pub aovs: bool,
+}
+
+impl KernelKey {
+    pub fn generic() -> KernelKey {
+        KernelKey { strategy: None, area_lights: true, delta_lights: true, glossy: true, mirrors: true, aovs: true }
+    }
+
+    /// The kernel specialised to a scene's features and a render's settings.
+    pub fn specialised(features: &SceneFeatures, settings: &RenderSettings) -> KernelKey {
+        KernelKey {
+            strategy: Some(settings.strategy),
+            area_lights: features.area_lights,
+            delta_lights: features.delta_lights(),
+            glossy: features.any_glossy,
+            mirrors: features.any_mirror,
+            aovs: settings.write_aovs,
+        }
+    }
+
+    /// The values of the WGSL `override` constants (`shaders/features.wgsl`).
+    pub fn constants(&self) -> Vec<(&'static str, f64)> {
+        let flag = |b: bool| if b { 1.0 } else { 0.0 };
+        let strategy = match self.strategy {
+            None => 255.0,
+            Some(Strategy::Uniform) => crate::gpu::layout::STRATEGY_UNIFORM as f64,
+            Some(Strategy::Brdf) => crate::gpu::layout::STRATEGY_BRDF as f64,
+            Some(Strategy::Light) => crate::gpu::layout::STRATEGY_LIGHT as f64,
+            Some(Strategy::Mis) => crate::gpu::layout::STRATEGY_MIS as f64,
+        };
+        vec![
+            ("STRATEGY", strategy),
+            ("HAS_AREA_LIGHTS", flag(self.area_lights)),
+            ("HAS_DELTA_LIGHTS", flag(self.delta_lights)),
+            ("HAS_GLOSSY", flag(self.glossy)),
+            ("HAS_MIRRORS", flag(self.mirrors)),
+            ("HAS_AOVS", flag(self.aovs)),
+        ]
+    }
+}

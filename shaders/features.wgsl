@@ -1,0 +1,26 @@
+// features.wgsl: what a kernel is specialised for. Each is a pipeline-overridable constant, set
+// from the scene's features and the render settings (crates/veach/src/features.rs); the
+// defaults make the generic kernel, which renders any scene and reads the strategy at run time.
+// A branch on a false constant is dead code that the driver's compiler removes.
+
+// 0..3: the strategy is fixed (STRATEGY_*); 255: read frame.strategy.
+override STRATEGY: u32 = 255u;
+// The scene has emissive triangles (area lights, emission seen directly).
+override HAS_AREA_LIGHTS: bool = true;
+// The scene has point, spot or directional lights.
+override HAS_DELTA_LIGHTS: bool = true;
+// Some material has a GGX lobe (metallic > 0 or specular > 0); else every one is Lambertian.
+override HAS_GLOSSY: bool = true;
+// Some material is a perfect mirror (roughness 0, a delta lobe).
+override HAS_MIRRORS: bool = true;
+// The contribution images may be written.
+override HAS_AOVS: bool = true;
+
+const STRATEGY_FROM_FRAME: u32 = 255u;
+
+fn active_strategy() -> u32 {
+    if STRATEGY != STRATEGY_FROM_FRAME {
+        return STRATEGY;
+    }
+    return frame.strategy;
+}

@@ -1,0 +1,84 @@
+//! Kernels specialised to a scene's features and strategy (shaders/features.wgsl) render the
+//! same image as the generic kernel, and compiled kernels are cached.
+
+mod common;
+
+use common::*;
+use glam::{Mat4, Vec3};
+use std::time::Duration;
+use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData, Punctual};
+use veach::features::KernelKey;
+use veach::{RenderSettings, Strategy};
+
+fn point_lit_plane() -> veach::Scene {
+    let mut g = GltfBuilder::new();
+    let m = g.material(&MaterialDesc::lambert("plane", Vec3::splat(0.5)));
+    let q = MeshData::quad(
+        Vec3::new(-5., 0., -5.),
+        Vec3::new(5., 0., -5.),
+        Vec3::new(5., 0., 5.),
+        Vec3::new(-5., 0., 5.),
+        Vec3::Y,
+    );
+    g.add_mesh("plane", &q, m, Mat4::IDENTITY);
+    g.punctual_light("point", Punctual::Point, Vec3::splat(2.0), Vec3::new(0.0, 1.0, 0.0), Vec3::ZERO);
+    g.punctual_light("sun", Punctual::Directional, Vec3::splat(0.5), Vec3::new(1.0, 1.0, 0.0), Vec3::ZERO);
+    g.camera("camera", Vec3::new(0.0, 2.0, 3.0), Vec3::ZERO, 60.0);
+    load(&g, "specialise-point")
+}
+
+/// The specialised kernels only drop code behind constant-false conditions (features the scene
+/// lacks, other strategies, contribution images not asked for) and draw the same random numbers,
+/// so their images are identical, bit for bit, to the generic kernel's.
+#[test]
+fn specialised_kernels_render_the_generic_kernels_image() {
+    for (name, scene) in [
+        ("cornell-box", shipped_scene("cornell-box")),
+        ("veach-mis", shipped_scene("veach-mis")),
+        ("point-lit plane", point_lit_plane()),
+    ] {
+        let camera = scene.camera(None).unwrap();
+        let gpu_scene = upload(&scene);
+        for strategy in [Strategy::Uniform, Strategy::Brdf, Strategy::Light, Strategy::Mis] {
+            for write_aovs in [false, true] {
+                let settings = RenderSettings {
+                    width: 24,
+                    height: 16,
+                    spp: 2,
+                    strategy,
+                    light_samples: 2,
+                    brdf_samples: 2,
+                    write_aovs,
+                    seed: 9,
+                    ..Default::default()
+                };
+                let special = render(&gpu_scene, &settings, &camera);
+                let generic = render(&gpu_scene, &RenderSettings { specialise: false, ..settings.clone() }, &camera);
+                assert_ne!(special.kernel, KernelKey::generic());
+                assert_eq!(generic.kernel, KernelKey::generic());
+                assert_eq!(special.sum, generic.sum, "{name} {strategy:?} aovs {write_aovs}: images differ");
+                if write_aovs {
+                    let (a, b) = (special.contributions.unwrap(), generic.contributions.unwrap());
+                    assert_eq!(a.light, b.light, "{name} {strategy:?}: light contributions differ");
+                    assert_eq!(a.brdf, b.brdf, "{name} {strategy:?}: BRDF contributions differ");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn kernels_are_cached_per_feature_set_and_strategy() {
+    let scene = shipped_scene("cornell-box");
+    let camera = scene.camera(None).unwrap();
+    let gpu_scene = upload(&scene);
+    let settings = |strategy| RenderSettings { width: 8, height: 8, spp: 1, strategy, seed: 1, ..Default::default() };
+    // Compile both kernels, then switch back and forth: nothing is compiled again.
+    render(&gpu_scene, &settings(Strategy::Light), &camera);
+    render(&gpu_scene, &settings(Strategy::Mis), &camera);
+    for strategy in [Strategy::Light, Strategy::Mis, Strategy::Light] {
+        let out = render(&gpu_scene, &settings(strategy), &camera);
+        assert_eq!(out.kernel_creation, Duration::ZERO, "{strategy:?} was compiled again");
+    }
+    assert_eq!(gpu_scene.features.describe(), "area lights, one light, all diffuse");
+}
