@@ -632,22 +632,7 @@ impl GpuTimer {
 
     /// The time between the two timestamps of the last dispatch (call after it finished).
     fn read(&self, device: &wgpu::Device) -> Result<Duration> {
-        let slice = self.readback.slice(..);
-        let (tx, rx) = std::sync::mpsc::channel();
-        slice.map_async(wgpu::MapMode::Read, move |r| {
-            let _ = tx.send(r);
-        });
-        device
-            .poll(wgpu::PollType::wait_indefinitely())
-            .map_err(|e| Error::Gpu(format!("waiting for the GPU failed: {e}")))?;
-        rx.recv()
-            .map_err(|_| Error::Gpu("timestamp readback was cancelled".into()))?
-            .map_err(|e| Error::Gpu(format!("timestamp readback failed: {e}")))?;
-        let ticks: [u64; 2] = {
-            let data = slice.get_mapped_range().map_err(|e| Error::Gpu(format!("timestamp readback failed: {e}")))?;
-            bytemuck::pod_read_unaligned(&data[..16])
-        };
-        self.readback.unmap();
+        let ticks: [u64; 2] = map_and_read(device, &self.readback, |data| bytemuck::pod_read_unaligned(&data[..16]))?;
         let ns = ticks[1].saturating_sub(ticks[0]) as f64 * self.period_ns;
         Ok(Duration::from_nanos(ns as u64))
     }
@@ -668,7 +653,12 @@ pub(crate) fn read_buffer<T: bytemuck::Pod>(
     let mut encoder = device.create_command_encoder(&Default::default());
     encoder.copy_buffer_to_buffer(src, 0, &staging, 0, src.size());
     queue.submit([encoder.finish()]);
-    let slice = staging.slice(..);
+    map_and_read(device, &staging, |data| bytemuck::cast_slice(data).to_vec())
+}
+
+/// Maps a MAP_READ buffer once the GPU is done, reads it with `read`, and unmaps it.
+fn map_and_read<T>(device: &wgpu::Device, buffer: &wgpu::Buffer, read: impl FnOnce(&[u8]) -> T) -> Result<T> {
+    let slice = buffer.slice(..);
     let (tx, rx) = std::sync::mpsc::channel();
     slice.map_async(wgpu::MapMode::Read, move |r| {
         let _ = tx.send(r);
@@ -679,9 +669,10 @@ pub(crate) fn read_buffer<T: bytemuck::Pod>(
     rx.recv()
         .map_err(|_| Error::Gpu("readback was cancelled".into()))?
         .map_err(|e| Error::Gpu(format!("readback failed: {e}")))?;
-    let data = slice.get_mapped_range().map_err(|e| Error::Gpu(format!("readback failed: {e}")))?;
-    let out = bytemuck::cast_slice(&data).to_vec();
-    drop(data);
-    staging.unmap();
+    let out = {
+        let data = slice.get_mapped_range().map_err(|e| Error::Gpu(format!("readback failed: {e}")))?;
+        read(&data)
+    };
+    buffer.unmap();
     Ok(out)
 }
