@@ -35,11 +35,11 @@ fn plane_camera() -> Camera {
     Camera::look_at("down", Vec3::new(0.0, 0.5, 0.0), Vec3::ZERO, Vec3::Z, 60f32.to_radians())
 }
 
-/// Average of `radiance(point on the plane)` over each pixel (8×8 sub-pixel grid, matching the
+/// Average of `value(camera ray direction)` over each pixel (8×8 sub-pixel grid, matching the
 /// renderer's box filter), following the camera model of `shaders/camera.wgsl`.
-fn expected_image(camera: &Camera, radiance: impl Fn(f64, f64) -> f64) -> Vec<f64> {
+fn pixel_average(camera: &Camera, value: impl Fn(Vec3) -> f64) -> Vec<f64> {
     let g = camera.to_gpu(SIZE, SIZE);
-    let (o, f, r, u) = (Vec3::from(g.origin), Vec3::from(g.forward), Vec3::from(g.right), Vec3::from(g.up));
+    let (f, r, u) = (Vec3::from(g.forward), Vec3::from(g.right), Vec3::from(g.up));
     let mut out = Vec::new();
     for py in 0..SIZE {
         for px in 0..SIZE {
@@ -48,16 +48,22 @@ fn expected_image(camera: &Camera, radiance: impl Fn(f64, f64) -> f64) -> Vec<f6
                 for i in 0..8 {
                     let sx = 2.0 * (px as f32 + (i as f32 + 0.5) / 8.0) / SIZE as f32 - 1.0;
                     let sy = 1.0 - 2.0 * (py as f32 + (j as f32 + 0.5) / 8.0) / SIZE as f32;
-                    let d = (f + sx * r + sy * u).normalize();
-                    let t = -o.y / d.y;
-                    let p = o + t * d;
-                    sum += radiance(p.x as f64, p.z as f64);
+                    sum += value((f + sx * r + sy * u).normalize());
                 }
             }
             out.push(sum / 64.0);
         }
     }
     out
+}
+
+/// Average of `radiance(point on the plane y = 0)` over each pixel.
+fn expected_image(camera: &Camera, radiance: impl Fn(f64, f64) -> f64) -> Vec<f64> {
+    let o = camera.position;
+    pixel_average(camera, |d| {
+        let p = o + (-o.y / d.y) * d;
+        radiance(p.x as f64, p.z as f64)
+    })
 }
 
 fn plane(g: &mut GltfBuilder) {
@@ -297,25 +303,11 @@ fn a_perfect_mirror_reflects_fresnel_times_radiance_with_mis_weight_one() {
     g.add_mesh("sky", &sky, light, glam::Mat4::IDENTITY);
     let scene = upload(&load(&g, "mirror"));
     let camera = Camera::look_at("c", Vec3::new(0.0, 1.0, 2.0), Vec3::new(0.0, 0.0, 0.0), Vec3::Y, 20f32.to_radians());
-    let gpu = camera.to_gpu(SIZE, SIZE);
     // Per pixel: F at the angle of the camera ray to the mirror's normal, averaged over the pixel.
-    let mut expected = Vec::new();
-    for py in 0..SIZE {
-        for px in 0..SIZE {
-            let mut sum = 0.0;
-            for j in 0..8 {
-                for i in 0..8 {
-                    let sx = 2.0 * (px as f32 + (i as f32 + 0.5) / 8.0) / SIZE as f32 - 1.0;
-                    let sy = 1.0 - 2.0 * (py as f32 + (j as f32 + 0.5) / 8.0) / SIZE as f32;
-                    let d =
-                        (Vec3::from(gpu.forward) + sx * Vec3::from(gpu.right) + sy * Vec3::from(gpu.up)).normalize();
-                    let cos = (-d.y) as f64;
-                    sum += (base + (1.0 - base) * (1.0 - cos).powi(5)) * le;
-                }
-            }
-            expected.push(sum / 64.0);
-        }
-    }
+    let expected = pixel_average(&camera, |d| {
+        let cos = (-d.y) as f64;
+        (base + (1.0 - base) * (1.0 - cos).powi(5)) * le
+    });
     let settings = |strategy, light, brdf| RenderSettings {
         width: SIZE,
         height: SIZE,

@@ -114,6 +114,33 @@ fn check_scene(scene_name: &str, width: u32, height: u32, block: u32, reference:
 }
 
 use Heuristic::{Balance, Power as PowerHeuristic};
+use glam::{Mat4, Vec3};
+use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
+
+/// A 4×4 floor, `left` material for x < 0 and `right` for x > 0, lit by the emitter `light`
+/// (radiance (6, 6, 5)), seen from above and in front; written as glTF, returns its path.
+fn floor_scene(name: &str, left: MaterialDesc, right: MaterialDesc, light: MeshData) -> String {
+    let mut g = GltfBuilder::new();
+    let left = g.material(&left);
+    let right = g.material(&right);
+    let emitter = g.material(&MaterialDesc::emitter("light", Vec3::new(6.0, 6.0, 5.0)));
+    let quad = |x0: f32, x1: f32| {
+        MeshData::quad(
+            Vec3::new(x0, 0., -2.),
+            Vec3::new(x1, 0., -2.),
+            Vec3::new(x1, 0., 2.),
+            Vec3::new(x0, 0., 2.),
+            Vec3::Y,
+        )
+    };
+    g.add_mesh("left floor", &quad(-2.0, 0.0), left, Mat4::IDENTITY);
+    g.add_mesh("right floor", &quad(0.0, 2.0), right, Mat4::IDENTITY);
+    g.add_mesh("light", &light, emitter, Mat4::IDENTITY);
+    g.camera("camera", Vec3::new(0.0, 1.0, 2.6), Vec3::new(0.0, 0.0, -0.6), 50.0);
+    let path = output_dir("scenes").join(format!("{name}.gltf"));
+    g.write(&path).unwrap();
+    path.to_str().unwrap().to_owned()
+}
 use LightSelection::{Each, Power, Uniform};
 
 #[test]
@@ -139,40 +166,25 @@ fn all_strategies_agree_on_the_cornell_box() {
 /// a metal half (roughness 0.35) and a glossy dielectric half (roughness 0.25, specular on).
 #[test]
 fn all_strategies_agree_on_glossy_surfaces() {
-    use glam::{Mat4, Vec3};
-    use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
-    let mut g = GltfBuilder::new();
-    let metal = g.material(&MaterialDesc::metal("gold", Vec3::new(0.9, 0.7, 0.3), 0.35));
-    let glossy = g.material(&MaterialDesc {
-        roughness: 0.25,
-        specular: 1.0,
-        ..MaterialDesc::lambert("red plastic", Vec3::new(0.5, 0.08, 0.05))
-    });
-    let light = g.material(&MaterialDesc::emitter("light", Vec3::new(6.0, 6.0, 5.0)));
-    let quad = |x0: f32, x1: f32| {
-        MeshData::quad(
-            Vec3::new(x0, 0., -2.),
-            Vec3::new(x1, 0., -2.),
-            Vec3::new(x1, 0., 2.),
-            Vec3::new(x0, 0., 2.),
-            Vec3::Y,
-        )
-    };
-    g.add_mesh("metal floor", &quad(-2.0, 0.0), metal, Mat4::IDENTITY);
-    g.add_mesh("glossy floor", &quad(0.0, 2.0), glossy, Mat4::IDENTITY);
-    let l = MeshData::quad(
+    let light = MeshData::quad(
         Vec3::new(-0.6, 1.5, -1.6),
         Vec3::new(0.6, 1.5, -1.6),
         Vec3::new(0.6, 1.2, -0.8),
         Vec3::new(-0.6, 1.2, -0.8),
         Vec3::new(0.0, -1.0, 0.3),
     );
-    g.add_mesh("light", &l, light, Mat4::IDENTITY);
-    g.camera("camera", Vec3::new(0.0, 1.0, 2.6), Vec3::new(0.0, 0.0, -0.6), 50.0);
-    let path = output_dir("scenes").join("glossy.gltf");
-    g.write(&path).unwrap();
+    let path = floor_scene(
+        "glossy",
+        MaterialDesc::metal("gold", Vec3::new(0.9, 0.7, 0.3), 0.35),
+        MaterialDesc {
+            roughness: 0.25,
+            specular: 1.0,
+            ..MaterialDesc::lambert("red plastic", Vec3::new(0.5, 0.08, 0.05))
+        },
+        light,
+    );
     check_scene(
-        path.to_str().unwrap(),
+        &path,
         24,
         24,
         6,
@@ -217,41 +229,22 @@ fn mis_variants_agree_on_the_veach_mis_scene() {
 /// every MIS variant must agree; light and uniform sampling see the diffuse part alone.
 #[test]
 fn brdf_and_mis_agree_on_perfect_mirrors() {
-    use glam::{Mat4, Vec3};
-    use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
-    let mut g = GltfBuilder::new();
-    let metal = g.material(&MaterialDesc::metal("mirror", Vec3::new(0.9, 0.8, 0.6), 0.0));
-    let glossy = g.material(&MaterialDesc {
-        roughness: 0.0,
-        specular: 1.0,
-        ..MaterialDesc::lambert("lacquer", Vec3::new(0.4, 0.1, 0.1))
-    });
-    let light = g.material(&MaterialDesc::emitter("light", Vec3::new(6.0, 6.0, 5.0)));
-    let quad = |x0: f32, x1: f32| {
-        MeshData::quad(
-            Vec3::new(x0, 0., -2.),
-            Vec3::new(x1, 0., -2.),
-            Vec3::new(x1, 0., 2.),
-            Vec3::new(x0, 0., 2.),
-            Vec3::Y,
-        )
-    };
-    g.add_mesh("metal mirror", &quad(-2.0, 0.0), metal, Mat4::IDENTITY);
-    g.add_mesh("lacquer", &quad(0.0, 2.0), glossy, Mat4::IDENTITY);
     // A wall of light behind the floor: the mirrors reflect it.
-    let l = MeshData::quad(
+    let light = MeshData::quad(
         Vec3::new(-3.0, 0.0, -3.0),
         Vec3::new(3.0, 0.0, -3.0),
         Vec3::new(3.0, 2.5, -3.0),
         Vec3::new(-3.0, 2.5, -3.0),
         Vec3::Z,
     );
-    g.add_mesh("light", &l, light, Mat4::IDENTITY);
-    g.camera("camera", Vec3::new(0.0, 1.0, 2.6), Vec3::new(0.0, 0.0, -0.6), 50.0);
-    let path = output_dir("scenes").join("mirrors.gltf");
-    g.write(&path).unwrap();
+    let path = floor_scene(
+        "mirrors",
+        MaterialDesc::metal("mirror", Vec3::new(0.9, 0.8, 0.6), 0.0),
+        MaterialDesc { roughness: 0.0, specular: 1.0, ..MaterialDesc::lambert("lacquer", Vec3::new(0.4, 0.1, 0.1)) },
+        light,
+    );
     check_scene(
-        path.to_str().unwrap(),
+        &path,
         24,
         24,
         6,
