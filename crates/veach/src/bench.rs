@@ -80,18 +80,10 @@ pub struct Reference {
     pub own_relmse: f64,
 }
 
-/// Renders the reference: MIS with the balance heuristic, every light sampled, 4 + 4 samples
-/// per camera sample.
-pub fn render_reference(
-    renderer: &Renderer,
-    scene: &GpuScene,
-    camera: &Camera,
-    width: u32,
-    height: u32,
-    spp: u32,
-    progress: &mut dyn FnMut(f64) -> bool,
-) -> Result<Reference> {
-    let settings = RenderSettings {
+/// The reference's settings: MIS with the balance heuristic, every light sampled, 4 + 4 samples
+/// per camera sample, emitters seen directly left out (errors measure reflected light).
+pub fn reference_settings(width: u32, height: u32, spp: u32) -> RenderSettings {
+    RenderSettings {
         width,
         height,
         spp,
@@ -103,7 +95,21 @@ pub fn render_reference(
         seed: 0x5eed,
         hide_emitters: true,
         ..Default::default()
-    };
+    }
+}
+
+/// Renders the reference: MIS with the balance heuristic, every light sampled, 4 + 4 samples
+/// per camera sample.
+pub fn render_reference(
+    renderer: &Renderer,
+    scene: &GpuScene,
+    camera: &Camera,
+    width: u32,
+    height: u32,
+    spp: u32,
+    progress: &mut dyn FnMut(f64) -> bool,
+) -> Result<Reference> {
+    let settings = reference_settings(width, height, spp);
     let out = renderer.render(scene, &settings, camera, &mut |p| progress(p.fraction))?;
     if out.interrupted {
         return Err(Error::Options("the reference render was interrupted".into()));
@@ -114,7 +120,7 @@ pub fn render_reference(
 }
 
 /// E[relMSE] of a render against the truth, estimated from its per-pixel variance of the mean.
-fn expected_relmse(out: &RenderOutput, mean: &[[f32; 3]]) -> f64 {
+pub fn expected_relmse(out: &RenderOutput, mean: &[[f32; 3]]) -> f64 {
     let var = out.variance_of_mean();
     let mut sum = 0.0;
     for (v, m) in var.iter().zip(mean) {

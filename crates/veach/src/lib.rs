@@ -4,6 +4,7 @@
 //! (buffers in the layout of `shaders/layout.wgsl`) → `render` (WGSL compute kernels composed
 //! by `shaders`) → `image_io`.
 
+pub mod accumulation;
 pub mod assets;
 pub mod bench;
 pub mod bench_run;
@@ -17,6 +18,7 @@ pub mod scene;
 pub mod shaders;
 pub mod stats;
 
+pub use accumulation::Accumulation;
 pub use error::{Error, Result};
 pub use gpu::context::GpuContext;
 pub use render::{GpuScene, Heuristic, LightSelection, RenderOutput, RenderSettings, Renderer, Strategy};

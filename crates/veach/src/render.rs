@@ -2,12 +2,13 @@
 //! A render is a series of short dispatches (a band of rows × a few camera samples each), so a
 //! long render shows progress, can be stopped, and never holds the GPU for seconds.
 
+use crate::accumulation::Accumulation;
 use crate::bvh::build_bvh;
 use crate::error::{Error, Result};
 use crate::features::{KernelKey, SceneFeatures};
 use crate::gpu::bindings;
 use crate::gpu::context::GpuContext;
-use crate::gpu::layout::{self, FrameParams, PixelCounters, WORKGROUP_SIZE};
+use crate::gpu::layout::{self, FrameParams};
 use crate::gpu::scene_buffers::{SceneArrays, build_scene_arrays};
 use crate::scene::{Camera, Scene};
 use crate::shaders;
@@ -65,7 +66,7 @@ impl Strategy {
     }
 }
 
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct RenderSettings {
     pub width: u32,
     pub height: u32,
@@ -245,9 +246,9 @@ pub struct GpuScene {
 /// A compiled kernel and its bind group layout. Creating one includes the driver's compile,
 /// which lavapipe does at the first dispatch; `Renderer::render` reports it as
 /// `RenderOutput::kernel_creation`, outside the render time.
-struct Kernel {
-    pipeline: wgpu::ComputePipeline,
-    layout: wgpu::BindGroupLayout,
+pub(crate) struct Kernel {
+    pub(crate) pipeline: wgpu::ComputePipeline,
+    pub(crate) layout: wgpu::BindGroupLayout,
 }
 
 /// The kernels on a device: the generic one, compiled up front, and the ones specialised to a
@@ -277,7 +278,7 @@ impl Renderer {
 
     /// The kernel for `key`, compiled now if it is not cached (and then also dispatched once,
     /// empty, since drivers such as lavapipe compile at the first dispatch).
-    fn kernel(&self, key: KernelKey) -> Result<(Arc<Kernel>, bool)> {
+    pub(crate) fn kernel(&self, key: KernelKey) -> Result<(Arc<Kernel>, bool)> {
         if let Some(k) = self.kernels.lock().expect("kernel cache").get(&key) {
             return Ok((k.clone(), false));
         }
@@ -414,180 +415,29 @@ impl Renderer {
         camera: &Camera,
         progress: &mut dyn FnMut(Progress) -> bool,
     ) -> Result<RenderOutput> {
-        let device = &self.gpu.device;
-        let queue = &self.gpu.queue;
-        let (w, h) = (settings.width, settings.height);
-        if w == 0 || h == 0 {
-            return Err(Error::Options(format!("image size {w}x{h} is empty")));
-        }
-        let pixels = w as u64 * h as u64;
-        let accum_bytes = pixels * 16;
-        let max_binding = device.limits().max_storage_buffer_binding_size;
-        if accum_bytes > max_binding {
-            return Err(Error::Options(format!(
-                "{w}x{h} needs {} MiB per image buffer; this adapter allows {} MiB",
-                accum_bytes >> 20,
-                max_binding >> 20
-            )));
-        }
-        let zeroed = |label: &str, bytes: u64| {
-            device.create_buffer(&wgpu::BufferDescriptor {
-                label: Some(label),
-                size: bytes,
-                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
-                mapped_at_creation: false,
-            })
-        };
-        let accum = zeroed("accum", accum_bytes);
-        let accum_sq = zeroed("accum_sq", accum_bytes);
-        let counters = zeroed("counters", pixels * std::mem::size_of::<PixelCounters>() as u64);
-        let aov_bytes = if settings.write_aovs { accum_bytes } else { 16 };
-        let aov_light = zeroed("aov_light", aov_bytes);
-        let aov_brdf = zeroed("aov_brdf", aov_bytes);
-        let params_buffer = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("frame params"),
-            size: std::mem::size_of::<FrameParams>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
-            mapped_at_creation: false,
-        });
-
-        let outputs = [&accum, &accum_sq, &counters, &aov_light, &aov_brdf];
-        let key =
-            if settings.specialise { KernelKey::specialised(&scene.features, settings) } else { KernelKey::generic() };
-        let creation_start = Instant::now();
-        let (kernel, created) = self.kernel(key)?;
-        let bind_group = self.bind_group(&kernel.layout, &params_buffer, scene, &outputs, &[]);
-        let mut params = self.frame_params(scene.light_count, settings, camera);
-        if created {
-            // An empty dispatch (no rows): the driver compiles the kernel here.
-            params.row_count = 0;
-            queue.write_buffer(&params_buffer, 0, bytemuck::bytes_of(&params));
-            let mut encoder = device.create_command_encoder(&Default::default());
-            {
-                let mut pass = encoder.begin_compute_pass(&Default::default());
-                pass.set_pipeline(&kernel.pipeline);
-                pass.set_bind_group(0, &bind_group, &[]);
-                pass.dispatch_workgroups(1, 1, 1);
-            }
-            queue.submit([encoder.finish()]);
-            device
-                .poll(wgpu::PollType::wait_indefinitely())
-                .map_err(|e| Error::Gpu(format!("waiting for the GPU failed: {e}")))?;
-        }
-        let kernel_creation = if created { creation_start.elapsed() } else { Duration::ZERO };
-        // Timestamps at the start and end of every dispatch, where the adapter has them.
-        let timer = self.gpu.has_timestamps.then(|| GpuTimer::new(device, queue));
-
-        let total_pixel_samples = pixels * settings.spp as u64;
-        let mut done: u64 = 0;
-        let mut sample_start: u32 = 0;
-        let mut row_start: u32 = 0;
-        // Seconds per pixel-sample, measured as we go; start small to measure safely.
-        let mut cost: Option<f64> = None;
-        let mut render_time = Duration::ZERO;
-        let mut gpu_time = Duration::ZERO;
-        let mut dispatches = 0u32;
-        let mut interrupted = false;
-        let max_dim = device.limits().max_compute_workgroups_per_dimension;
-        if w.div_ceil(WORKGROUP_SIZE.0) > max_dim {
-            return Err(Error::Options(format!("width {w} exceeds this adapter's dispatch limit")));
-        }
-        loop {
-            let within_time = settings.time_limit.is_none_or(|t| render_time < t);
-            if sample_start >= settings.spp || !within_time {
-                break;
-            }
-            // Size the dispatch to about `dispatch_target`.
-            let target_work = match cost {
-                None => (w as u64 * 8).min(pixels),
-                Some(c) => ((settings.dispatch_target.as_secs_f64() / c) as u64).max(w as u64),
-            };
-            let (rows, samples) = if row_start == 0 && target_work >= pixels {
-                let k = (target_work / pixels).clamp(1, (settings.spp - sample_start) as u64);
-                (h, k as u32)
-            } else {
-                let rows = (target_work / w as u64).clamp(1, (h - row_start) as u64) as u32;
-                (rows.min(max_dim * WORKGROUP_SIZE.1), 1)
-            };
-            params.row_start = row_start;
-            params.row_count = rows;
-            params.sample_start = sample_start;
-            params.sample_count = samples;
-            queue.write_buffer(&params_buffer, 0, bytemuck::bytes_of(&params));
-            let mut encoder = device.create_command_encoder(&Default::default());
-            {
-                let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
-                    label: Some("render"),
-                    timestamp_writes: timer.as_ref().map(GpuTimer::writes),
-                });
-                pass.set_pipeline(&kernel.pipeline);
-                pass.set_bind_group(0, &bind_group, &[]);
-                pass.dispatch_workgroups(w.div_ceil(WORKGROUP_SIZE.0), rows.div_ceil(WORKGROUP_SIZE.1), 1);
-            }
-            if let Some(t) = &timer {
-                t.resolve(&mut encoder);
-            }
-            let start = Instant::now();
-            queue.submit([encoder.finish()]);
-            device
-                .poll(wgpu::PollType::wait_indefinitely())
-                .map_err(|e| Error::Gpu(format!("waiting for the GPU failed: {e}")))?;
-            let elapsed = start.elapsed();
-            render_time += elapsed;
-            if let Some(t) = &timer {
-                gpu_time += t.read(device)?;
-            }
-            dispatches += 1;
-            let work = w as u64 * rows as u64 * samples as u64;
-            done += work;
-            cost = Some(elapsed.as_secs_f64().max(1e-6) / work as f64);
-            row_start += rows;
-            if row_start >= h {
-                row_start = 0;
-                sample_start += samples;
-            }
+        let mut acc = Accumulation::new(self, scene, settings, camera)?;
+        let total_pixel_samples = settings.width as u64 * settings.height as u64 * settings.spp as u64;
+        while !acc.is_complete() && settings.time_limit.is_none_or(|t| acc.render_time() < t) {
+            acc.dispatch(settings.dispatch_target)?;
+            let done = acc.pixel_samples_done();
             let mut fraction = if total_pixel_samples > 0 { done as f64 / total_pixel_samples as f64 } else { 1.0 };
             if let Some(t) = settings.time_limit {
-                fraction = fraction.max(render_time.as_secs_f64() / t.as_secs_f64().max(1e-9));
+                fraction = fraction.max(acc.render_time().as_secs_f64() / t.as_secs_f64().max(1e-9));
             }
-            let p = Progress { fraction: fraction.min(1.0), pixel_samples_done: done, elapsed: render_time };
+            let p = Progress { fraction: fraction.min(1.0), pixel_samples_done: done, elapsed: acc.render_time() };
             if !progress(p) {
-                interrupted = sample_start < settings.spp;
                 break;
             }
         }
-
-        let sum: Vec<[f32; 4]> = read_buffer(device, queue, &accum)?;
-        let sum_sq: Vec<[f32; 4]> = read_buffer(device, queue, &accum_sq)?;
-        let counts: Vec<PixelCounters> = read_buffer(device, queue, &counters)?;
-        let contributions = if settings.write_aovs {
-            Some(Contributions {
-                light: read_buffer(device, queue, &aov_light)?,
-                brdf: read_buffer(device, queue, &aov_brdf)?,
-            })
-        } else {
-            None
-        };
-        Ok(RenderOutput {
-            width: w,
-            height: h,
-            sum,
-            sum_sq,
-            contributions,
-            rays: counts.iter().map(|c| c.rays as u64).sum(),
-            nonfinite_samples: counts.iter().map(|c| c.nonfinite as u64).sum(),
-            render_time,
-            gpu_time: timer.is_some().then_some(gpu_time),
-            kernel: key,
-            kernel_creation,
-            dispatches,
-            interrupted,
-        })
+        let mut out = acc.read()?;
+        // Running out of time is the budget, not an interruption.
+        out.interrupted &= settings.time_limit.is_none_or(|t| acc.render_time() < t);
+        Ok(out)
     }
 }
 
 /// Timestamp queries around one compute pass, resolved and read back after each dispatch.
-struct GpuTimer {
+pub(crate) struct GpuTimer {
     queries: wgpu::QuerySet,
     resolved: wgpu::Buffer,
     readback: wgpu::Buffer,
@@ -595,7 +445,7 @@ struct GpuTimer {
 }
 
 impl GpuTimer {
-    fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> GpuTimer {
+    pub(crate) fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> GpuTimer {
         let queries = device.create_query_set(&wgpu::QuerySetDescriptor {
             label: Some("dispatch timestamps"),
             ty: wgpu::QueryType::Timestamp,
@@ -617,7 +467,7 @@ impl GpuTimer {
         }
     }
 
-    fn writes(&self) -> wgpu::ComputePassTimestampWrites<'_> {
+    pub(crate) fn writes(&self) -> wgpu::ComputePassTimestampWrites<'_> {
         wgpu::ComputePassTimestampWrites {
             query_set: &self.queries,
             beginning_of_pass_write_index: Some(0),
@@ -625,13 +475,13 @@ impl GpuTimer {
         }
     }
 
-    fn resolve(&self, encoder: &mut wgpu::CommandEncoder) {
+    pub(crate) fn resolve(&self, encoder: &mut wgpu::CommandEncoder) {
         encoder.resolve_query_set(&self.queries, 0..2, &self.resolved, 0);
         encoder.copy_buffer_to_buffer(&self.resolved, 0, &self.readback, 0, 16);
     }
 
     /// The time between the two timestamps of the last dispatch (call after it finished).
-    fn read(&self, device: &wgpu::Device) -> Result<Duration> {
+    pub(crate) fn read(&self, device: &wgpu::Device) -> Result<Duration> {
         let ticks: [u64; 2] = map_and_read(device, &self.readback, |data| bytemuck::pod_read_unaligned(&data[..16]))?;
         let ns = ticks[1].saturating_sub(ticks[0]) as f64 * self.period_ns;
         Ok(Duration::from_nanos(ns as u64))

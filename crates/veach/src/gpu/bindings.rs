@@ -13,6 +13,8 @@ pub const OUTPUT_COUNT: u32 = 5;
 pub const TEST_PARAMS: u32 = 20;
 pub const TEST_INPUT: u32 = 21;
 pub const TEST_OUTPUT: u32 = 22;
+/// Storage buffers a render kernel binds (scene + outputs): a device must allow this many per stage.
+pub const STORAGE_BUFFERS_NEEDED: u32 = SCENE_COUNT + OUTPUT_COUNT;
 
 fn entry(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {

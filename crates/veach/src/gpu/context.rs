@@ -34,8 +34,54 @@ impl GpuContext {
             desc.backends = wgpu::Backends::PRIMARY;
         }
         let instance = wgpu::Instance::new(desc);
-        let mut adapters = instance.enumerate_adapters(wgpu::Backends::all()).await;
-        let filter = adapter_filter.map(str::to_owned).or_else(|| std::env::var("VEACH_ADAPTER").ok());
+        let adapters = instance.enumerate_adapters(wgpu::Backends::all()).await;
+        let adapter = Self::choose_adapter(adapters, adapter_filter)?;
+        let info = adapter.get_info();
+        let (device, queue) = adapter
+            .request_device(&Self::device_descriptor(&adapter))
+            .await
+            .map_err(|e| Error::Gpu(format!("cannot open device on {}: {e}", info.name)))?;
+        Self::from_device(&adapter, device, queue)
+    }
+
+    /// What veach asks of a device: the adapter's own limits (the defaults allow only 8
+    /// storage buffers per stage) and timestamp queries where there are any. The viewer asks
+    /// eframe for a device with this, so that the window and the renderer share one.
+    pub fn device_descriptor(adapter: &wgpu::Adapter) -> wgpu::DeviceDescriptor<'static> {
+        let mut required_features = wgpu::Features::empty();
+        if adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY) {
+            required_features |= wgpu::Features::TIMESTAMP_QUERY;
+        }
+        wgpu::DeviceDescriptor {
+            label: Some("veach"),
+            required_features,
+            required_limits: adapter.limits(),
+            experimental_features: wgpu::ExperimentalFeatures::disabled(),
+            memory_hints: wgpu::MemoryHints::Performance,
+            trace: wgpu::Trace::Off,
+        }
+    }
+
+    /// A context on a device opened elsewhere (the viewer's window), checked against what the
+    /// kernels bind.
+    pub fn from_device(adapter: &wgpu::Adapter, device: wgpu::Device, queue: wgpu::Queue) -> Result<GpuContext> {
+        let info = adapter.get_info();
+        let storage = device.limits().max_storage_buffers_per_shader_stage;
+        if storage < crate::gpu::bindings::STORAGE_BUFFERS_NEEDED {
+            return Err(Error::Gpu(format!(
+                "the device on {} allows {storage} storage buffers per shader stage; veach's kernels bind {}",
+                info.name,
+                crate::gpu::bindings::STORAGE_BUFFERS_NEEDED
+            )));
+        }
+        let has_timestamps = device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        Ok(GpuContext { device, queue, adapter_info: info, has_timestamps })
+    }
+
+    /// Adapters in veach's order of preference (a discrete GPU first, a software one last),
+    /// narrowed to those whose name contains `filter` (or `VEACH_ADAPTER`).
+    pub fn choose_adapter(mut adapters: Vec<wgpu::Adapter>, filter: Option<&str>) -> Result<wgpu::Adapter> {
+        let filter = filter.map(str::to_owned).or_else(|| std::env::var("VEACH_ADAPTER").ok());
         if let Some(f) = &filter {
             let names: Vec<String> = adapters.iter().map(|a| a.get_info().name).collect();
             adapters.retain(|a| a.get_info().name.to_lowercase().contains(&f.to_lowercase()));
@@ -44,27 +90,7 @@ impl GpuContext {
             }
         }
         adapters.sort_by_key(|a| preference(&a.get_info()));
-        let adapter = adapters.into_iter().next().ok_or(Error::NoAdapter)?;
-        let info = adapter.get_info();
-        let has_timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
-        let mut required_features = wgpu::Features::empty();
-        if has_timestamps {
-            required_features |= wgpu::Features::TIMESTAMP_QUERY;
-        }
-        // Ask for what the adapter offers: the defaults allow only 8 storage buffers per stage.
-        let required_limits = adapter.limits();
-        let (device, queue) = adapter
-            .request_device(&wgpu::DeviceDescriptor {
-                label: Some("veach"),
-                required_features,
-                required_limits,
-                experimental_features: wgpu::ExperimentalFeatures::disabled(),
-                memory_hints: wgpu::MemoryHints::Performance,
-                trace: wgpu::Trace::Off,
-            })
-            .await
-            .map_err(|e| Error::Gpu(format!("cannot open device on {}: {e}", info.name)))?;
-        Ok(GpuContext { device, queue, adapter_info: info, has_timestamps })
+        adapters.into_iter().next().ok_or(Error::NoAdapter)
     }
 
     /// "llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan, Cpu)"

@@ -2,7 +2,7 @@ use super::Bounds;
 use glam::Vec3;
 
 /// A perspective pinhole camera.
-#[derive(Clone, Debug)]
+#[derive(Clone, Debug, PartialEq)]
 pub struct Camera {
     pub name: String,
     pub position: Vec3,

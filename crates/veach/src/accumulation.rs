@@ -1,0 +1,260 @@
+//! One image being accumulated on the GPU: the buffers, the kernel and how far it has got.
+//! `Renderer::render` drives it to a sample budget; the viewer drives it one short dispatch
+//! per frame and reads the image back whenever it wants to show it.
+
+use crate::error::{Error, Result};
+use crate::features::KernelKey;
+use crate::gpu::context::GpuContext;
+use crate::gpu::layout::{FrameParams, PixelCounters, WORKGROUP_SIZE};
+use crate::render::{Contributions, GpuScene, GpuTimer, Kernel, RenderOutput, RenderSettings, Renderer, read_buffer};
+use crate::scene::Camera;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+pub struct Accumulation {
+    gpu: GpuContext,
+    settings: RenderSettings,
+    kernel: Arc<Kernel>,
+    key: KernelKey,
+    kernel_creation: Duration,
+    bind_group: wgpu::BindGroup,
+    params: FrameParams,
+    params_buffer: wgpu::Buffer,
+    accum: wgpu::Buffer,
+    accum_sq: wgpu::Buffer,
+    counters: wgpu::Buffer,
+    aov_light: wgpu::Buffer,
+    aov_brdf: wgpu::Buffer,
+    timer: Option<GpuTimer>,
+    /// Next dispatch starts at this camera sample and row.
+    sample_start: u32,
+    row_start: u32,
+    /// Seconds per pixel-sample, measured as we go (None before the first dispatch).
+    cost: Option<f64>,
+    last_work: u64,
+    pixel_samples_done: u64,
+    render_time: Duration,
+    gpu_time: Duration,
+    dispatches: u32,
+}
+
+impl Accumulation {
+    /// Allocates the image buffers and gets the kernel for `settings` (compiling it now if it
+    /// is not cached; that time is `kernel_creation`, outside the render time).
+    pub fn new(renderer: &Renderer, scene: &GpuScene, settings: &RenderSettings, camera: &Camera) -> Result<Self> {
+        let gpu = renderer.gpu.clone();
+        let device = &gpu.device;
+        let (w, h) = (settings.width, settings.height);
+        if w == 0 || h == 0 {
+            return Err(Error::Options(format!("image size {w}x{h} is empty")));
+        }
+        let pixels = w as u64 * h as u64;
+        let accum_bytes = pixels * 16;
+        let max_binding = device.limits().max_storage_buffer_binding_size;
+        if accum_bytes > max_binding {
+            return Err(Error::Options(format!(
+                "{w}x{h} needs {} MiB per image buffer; this adapter allows {} MiB",
+                accum_bytes >> 20,
+                max_binding >> 20
+            )));
+        }
+        let max_dim = device.limits().max_compute_workgroups_per_dimension;
+        if w.div_ceil(WORKGROUP_SIZE.0) > max_dim {
+            return Err(Error::Options(format!("width {w} exceeds this adapter's dispatch limit")));
+        }
+        let zeroed = |label: &str, bytes: u64| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size: bytes,
+                usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC,
+                mapped_at_creation: false,
+            })
+        };
+        let accum = zeroed("accum", accum_bytes);
+        let accum_sq = zeroed("accum_sq", accum_bytes);
+        let counters = zeroed("counters", pixels * std::mem::size_of::<PixelCounters>() as u64);
+        let aov_bytes = if settings.write_aovs { accum_bytes } else { 16 };
+        let aov_light = zeroed("aov_light", aov_bytes);
+        let aov_brdf = zeroed("aov_brdf", aov_bytes);
+        let params_buffer = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("frame params"),
+            size: std::mem::size_of::<FrameParams>() as u64,
+            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            mapped_at_creation: false,
+        });
+
+        let outputs = [&accum, &accum_sq, &counters, &aov_light, &aov_brdf];
+        let key =
+            if settings.specialise { KernelKey::specialised(&scene.features, settings) } else { KernelKey::generic() };
+        let creation_start = Instant::now();
+        let (kernel, created) = renderer.kernel(key)?;
+        let bind_group = renderer.bind_group(&kernel.layout, &params_buffer, scene, &outputs, &[]);
+        let params = renderer.frame_params(scene.light_count, settings, camera);
+        let mut acc = Accumulation {
+            gpu: gpu.clone(),
+            settings: settings.clone(),
+            kernel,
+            key,
+            kernel_creation: Duration::ZERO,
+            bind_group,
+            params,
+            params_buffer,
+            accum,
+            accum_sq,
+            counters,
+            aov_light,
+            aov_brdf,
+            timer: gpu.has_timestamps.then(|| GpuTimer::new(&gpu.device, &gpu.queue)),
+            sample_start: 0,
+            row_start: 0,
+            cost: None,
+            last_work: 0,
+            pixel_samples_done: 0,
+            render_time: Duration::ZERO,
+            gpu_time: Duration::ZERO,
+            dispatches: 0,
+        };
+        if created {
+            // An empty dispatch (no rows): drivers such as lavapipe compile the kernel here.
+            acc.submit(0, 0, false)?;
+            acc.kernel_creation = creation_start.elapsed();
+        }
+        Ok(acc)
+    }
+
+    /// Whether every camera sample of `settings.spp` has been taken.
+    pub fn is_complete(&self) -> bool {
+        self.sample_start >= self.settings.spp
+    }
+
+    /// Camera samples that every pixel has (a dispatch may have covered only some rows of the next).
+    pub fn complete_samples(&self) -> u32 {
+        self.sample_start
+    }
+
+    pub fn pixel_samples_done(&self) -> u64 {
+        self.pixel_samples_done
+    }
+
+    /// Wall-clock time of the dispatches so far (submit until the GPU is done).
+    pub fn render_time(&self) -> Duration {
+        self.render_time
+    }
+
+    pub fn settings(&self) -> &RenderSettings {
+        &self.settings
+    }
+
+    pub fn kernel_creation(&self) -> Duration {
+        self.kernel_creation
+    }
+
+    /// Runs one dispatch of about `target` (a band of rows, or whole images × a few samples),
+    /// waits for it and returns its time. Does nothing once complete.
+    pub fn dispatch(&mut self, target: Duration) -> Result<Duration> {
+        if self.is_complete() {
+            return Ok(Duration::ZERO);
+        }
+        let (w, h) = (self.settings.width, self.settings.height);
+        let pixels = w as u64 * h as u64;
+        let max_rows = self.gpu.device.limits().max_compute_workgroups_per_dimension * WORKGROUP_SIZE.1;
+        // Start small, to measure the cost safely; then size the dispatch to `target`.
+        // Never more than 4× the last dispatch's work, so one misleading measurement (a
+        // dispatch that waited behind other work, say) cannot size a dispatch of minutes.
+        let target_work = match self.cost {
+            None => (w as u64 * 8).min(pixels),
+            Some(c) => ((target.as_secs_f64() / c) as u64).clamp(w as u64, 4 * self.last_work.max(w as u64)),
+        };
+        let (rows, samples) = if self.row_start == 0 && target_work >= pixels {
+            let k = (target_work / pixels).clamp(1, (self.settings.spp - self.sample_start) as u64);
+            (h, k as u32)
+        } else {
+            let rows = (target_work / w as u64).clamp(1, (h - self.row_start) as u64) as u32;
+            (rows.min(max_rows), 1)
+        };
+        let elapsed = self.submit(rows, samples, true)?;
+        let work = w as u64 * rows as u64 * samples as u64;
+        self.last_work = work;
+        self.pixel_samples_done += work;
+        self.cost = Some(elapsed.as_secs_f64().max(1e-6) / work as f64);
+        self.row_start += rows;
+        if self.row_start >= h {
+            self.row_start = 0;
+            self.sample_start += samples;
+        }
+        Ok(elapsed)
+    }
+
+    /// Submits rows [row_start, row_start + rows) × `samples` camera samples, waits, and returns
+    /// the wall-clock time. Dispatches are sized by it, not by timestamps: under eframe on
+    /// lavapipe the timestamps of a 13 ms dispatch read 0.08 ms, and one bad reading must not
+    /// size a dispatch of minutes.
+    fn submit(&mut self, rows: u32, samples: u32, timed: bool) -> Result<Duration> {
+        let (device, queue) = (&self.gpu.device, &self.gpu.queue);
+        self.params.row_start = self.row_start;
+        self.params.row_count = rows;
+        self.params.sample_start = self.sample_start;
+        self.params.sample_count = samples;
+        queue.write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
+        let timer = self.timer.as_ref().filter(|_| timed);
+        let mut encoder = device.create_command_encoder(&Default::default());
+        {
+            let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
+                label: Some("render"),
+                timestamp_writes: timer.map(GpuTimer::writes),
+            });
+            pass.set_pipeline(&self.kernel.pipeline);
+            pass.set_bind_group(0, &self.bind_group, &[]);
+            let groups_y = rows.div_ceil(WORKGROUP_SIZE.1).max(1);
+            pass.dispatch_workgroups(self.settings.width.div_ceil(WORKGROUP_SIZE.0), groups_y, 1);
+        }
+        if let Some(t) = timer {
+            t.resolve(&mut encoder);
+        }
+        let start = Instant::now();
+        queue.submit([encoder.finish()]);
+        device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|e| Error::Gpu(format!("waiting for the GPU failed: {e}")))?;
+        let elapsed = start.elapsed();
+        if timed {
+            self.render_time += elapsed;
+            self.dispatches += 1;
+            if let Some(t) = timer {
+                self.gpu_time += t.read(device)?;
+            }
+        }
+        Ok(elapsed)
+    }
+
+    /// Reads the image accumulated so far back to the host.
+    pub fn read(&self) -> Result<RenderOutput> {
+        let (device, queue) = (&self.gpu.device, &self.gpu.queue);
+        let sum: Vec<[f32; 4]> = read_buffer(device, queue, &self.accum)?;
+        let sum_sq: Vec<[f32; 4]> = read_buffer(device, queue, &self.accum_sq)?;
+        let counts: Vec<PixelCounters> = read_buffer(device, queue, &self.counters)?;
+        let contributions = if self.settings.write_aovs {
+            Some(Contributions {
+                light: read_buffer(device, queue, &self.aov_light)?,
+                brdf: read_buffer(device, queue, &self.aov_brdf)?,
+            })
+        } else {
+            None
+        };
+        Ok(RenderOutput {
+            width: self.settings.width,
+            height: self.settings.height,
+            sum,
+            sum_sq,
+            contributions,
+            rays: counts.iter().map(|c| c.rays as u64).sum(),
+            nonfinite_samples: counts.iter().map(|c| c.nonfinite as u64).sum(),
+            render_time: self.render_time,
+            gpu_time: self.timer.is_some().then_some(self.gpu_time),
+            kernel: self.key,
+            kernel_creation: self.kernel_creation,
+            dispatches: self.dispatches,
+            interrupted: !self.is_complete(),
+        })
+    }
+}
