@@ -197,3 +197,42 @@ fn generated_assets_match_the_shipped_files() {
         );
     }
 }
+
+/// `veach view` in a real window on a virtual display: renders, saves a screenshot, exits.
+/// Needs xvfb-run (scripts/setup-debian.sh installs it); CI sets VEACH_REQUIRE_XVFB=1 so that
+/// a missing one fails instead of skipping.
+#[test]
+fn viewer_window_renders_and_saves_a_screenshot_under_xvfb() {
+    let have_xvfb = Command::new("xvfb-run").arg("--help").output().is_ok();
+    if !have_xvfb {
+        assert!(std::env::var_os("VEACH_REQUIRE_XVFB").is_none(), "VEACH_REQUIRE_XVFB is set but xvfb-run is missing");
+        eprintln!("skipped: xvfb-run is not installed (scripts/setup-debian.sh installs it)");
+        return;
+    }
+    let shot = out_dir().join("viewer-window.png");
+    let _ = std::fs::remove_file(&shot);
+    let o = Command::new("xvfb-run")
+        .args(["-a", "-s", "-screen 0 1280x900x24", env!("CARGO_BIN_EXE_veach"), "view"])
+        .arg(assets("cornell-box.gltf"))
+        .args(["--width", "64", "--height", "64", "--frames", "8", "--screenshot"])
+        .arg(&shot)
+        .output()
+        .expect("run xvfb-run");
+    assert!(o.status.success(), "veach view failed: {}", stderr(&o));
+    let img = image::open(&shot).expect("the screenshot is a PNG").to_rgba8();
+    assert!(img.width() >= 800 && img.height() >= 600, "{}x{}", img.width(), img.height());
+    // The render sits right of the controls: it has lit pixels (the red wall) there.
+    let red = img.enumerate_pixels().filter(|(x, _, p)| *x > 420 && p[0] > 90 && p[1] < 60 && p[2] < 60).count();
+    assert!(red > 500, "no red wall in the window's image area ({red} red pixels)");
+}
+
+#[test]
+fn viewer_refuses_bad_input_before_opening_a_window() {
+    let o = veach(&["view", "no-such-scene.gltf"]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("no-such-scene.gltf"), "{}", stderr(&o));
+    let o = veach(&["view", &assets("cornell-box.gltf"), "--screenshot", "shot.jpg"]);
+    assert!(!o.status.success() && stderr(&o).contains("PNG"), "{}", stderr(&o));
+    let o = veach(&["view", &assets("cornell-box.gltf"), "--camera", "nope"]);
+    assert!(!o.status.success() && stderr(&o).contains("nope"), "{}", stderr(&o));
+}

@@ -24,6 +24,8 @@ struct Cli {
 enum Command {
     /// Render a glTF scene (.gltf or .glb) to an image.
     Render(RenderArgs),
+    /// Open a scene in the interactive viewer: progressive render, strategy toggles, error plot.
+    View(ViewArgs),
     /// Measure error against render time for every strategy (results.csv, plots, report.md).
     Bench(BenchArgs),
     /// Print what veach sees in a scene: counts, materials, lights, cameras.
@@ -150,6 +152,64 @@ struct RenderArgs {
 }
 
 #[derive(clap::Args)]
+#[command(after_long_help = "MOUSE AND KEYS
+  Drag: orbit. Right or middle drag: pan. Wheel: zoom. Arrows orbit, +/- zoom, R resets the camera.
+  Drop a .gltf/.glb on the window to open it, or a linear .exr/.pfm to use it as the reference.
+
+The image accumulates until --max-spp camera samples per pixel (0: never stops) and starts
+again whenever a setting or the camera changes. With --screenshot the window renders --frames
+frames, saves what it shows as PNG and closes (for docs and smoke tests; on a machine without a
+display, run it under xvfb-run).")]
+struct ViewArgs {
+    /// glTF scene (.gltf or .glb)
+    scene: PathBuf,
+    /// Image width before the resolution scale
+    #[arg(long, default_value_t = 256)]
+    width: u32,
+    /// Image height before the resolution scale
+    #[arg(long, default_value_t = 256)]
+    height: u32,
+    #[arg(long, value_enum, default_value_t = StrategyArg::Mis)]
+    strategy: StrategyArg,
+    /// Light samples per camera sample [default: 1 for mis, 2 for light]
+    #[arg(long)]
+    light_samples: Option<u32>,
+    /// BRDF samples (uniform: directions) per camera sample [default: 1 for mis, 2 otherwise]
+    #[arg(long)]
+    brdf_samples: Option<u32>,
+    #[arg(long, value_enum, default_value_t = HeuristicArg::Power)]
+    heuristic: HeuristicArg,
+    #[arg(long, value_enum, default_value_t = SelectionArg::Power)]
+    light_selection: SelectionArg,
+    #[arg(long, default_value_t = 0)]
+    seed: u32,
+    /// Stop accumulating at this many camera samples per pixel (0: never)
+    #[arg(long, default_value_t = 4096)]
+    max_spp: u32,
+    /// Camera to start from, by name [default: the scene's first, or one framing the scene]
+    #[arg(long)]
+    camera: Option<String>,
+    /// Reference image (linear .exr or .pfm, same size) for the live relMSE plot
+    #[arg(long)]
+    reference: Option<PathBuf>,
+    /// Exposure in stops
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    exposure: f32,
+    /// Render time per frame in milliseconds (dispatches are sized to fit it)
+    #[arg(long, default_value_t = 40)]
+    frame_ms: u64,
+    /// Save a screenshot of the window after --frames frames, then close
+    #[arg(long, value_name = "FILE.png")]
+    screenshot: Option<PathBuf>,
+    /// Frames to render before the screenshot
+    #[arg(long, default_value_t = 60)]
+    frames: u32,
+    /// Use the adapter whose name contains this text (also VEACH_ADAPTER)
+    #[arg(long)]
+    adapter: Option<String>,
+}
+
+#[derive(clap::Args)]
 #[command(after_long_help = "For each scene: a reference (--reference, or MIS rendered at --reference-spp and cached \
 in DIR), then every strategy at budgets 1, 2, 4 ... --max-spp camera samples per pixel (or, with --time-budgets, \
 --min-seconds, 2x ... --max-seconds) over --seeds seeds, then every strategy at equal time. Each camera sample \
@@ -202,6 +262,7 @@ fn main() {
     quiet_mesa_runtime_dir_warning();
     let result = match cli.command {
         Command::Render(args) => render(args),
+        Command::View(args) => view(args),
         Command::Bench(args) => bench(args),
         Command::Info { scene } => info(&scene),
         Command::Generate { name, output } => generate(&name, &output),
@@ -233,12 +294,7 @@ fn quiet_mesa_runtime_dir_warning() {
 }
 
 fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
-    let strategy = match args.strategy {
-        StrategyArg::Uniform => Strategy::Uniform,
-        StrategyArg::Brdf => Strategy::Brdf,
-        StrategyArg::Light => Strategy::Light,
-        StrategyArg::Mis => Strategy::Mis,
-    };
+    let strategy = strategy_of(args.strategy);
     let (default_light, default_brdf) = strategy.default_sample_counts();
     let light_samples = args.light_samples.unwrap_or(default_light);
     let brdf_samples = args.brdf_samples.unwrap_or(default_brdf);
@@ -277,21 +333,76 @@ fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
         strategy,
         light_samples,
         brdf_samples,
-        heuristic: match args.heuristic {
-            HeuristicArg::Balance => Heuristic::Balance,
-            HeuristicArg::Power => Heuristic::Power,
-        },
-        light_selection: match args.light_selection {
-            SelectionArg::Each => LightSelection::Each,
-            SelectionArg::Uniform => LightSelection::Uniform,
-            SelectionArg::Power => LightSelection::Power,
-        },
+        heuristic: heuristic_of(args.heuristic),
+        light_selection: selection_of(args.light_selection),
         seed: args.seed,
         time_limit,
         write_aovs: !args.aov.is_empty(),
         specialise: !args.no_specialise,
         ..Default::default()
     })
+}
+
+fn view(args: ViewArgs) -> Result<()> {
+    if args.width == 0 || args.height == 0 {
+        bail!("--width and --height must be at least 1");
+    }
+    if let Some(path) = &args.screenshot
+        && path.extension().and_then(|e| e.to_str()).is_none_or(|e| !e.eq_ignore_ascii_case("png"))
+    {
+        bail!("{}: --screenshot writes PNG; give a .png file", path.display());
+    }
+    // Fail on a bad scene or reference here, with the file's name, before opening a window.
+    let scene = veach::load_gltf(&args.scene)?;
+    scene.camera(args.camera.as_deref()).map_err(|m| anyhow::anyhow!("{}: {m}", args.scene.display()))?;
+    if let Some(r) = &args.reference {
+        veach::image_io::read_image(r)?;
+    }
+    let strategy = strategy_of(args.strategy);
+    let (light_default, brdf_default) = veach_viewer::app::interactive_sample_counts(strategy);
+    let mut options = veach_viewer::ViewerOptions::new(args.scene.clone());
+    options.settings = RenderSettings {
+        width: args.width,
+        height: args.height,
+        spp: args.max_spp,
+        strategy,
+        light_samples: args.light_samples.unwrap_or(light_default),
+        brdf_samples: args.brdf_samples.unwrap_or(brdf_default),
+        heuristic: heuristic_of(args.heuristic),
+        light_selection: selection_of(args.light_selection),
+        seed: args.seed,
+        ..options.settings
+    };
+    options.camera = args.camera;
+    options.reference = args.reference;
+    options.exposure = args.exposure;
+    options.frame_budget = Duration::from_millis(args.frame_ms.max(1));
+    options.screenshot = args.screenshot.map(|p| (p, args.frames.max(1)));
+    veach_viewer::run(options, args.adapter).map_err(|e| anyhow::anyhow!("viewer: {e}"))
+}
+
+fn strategy_of(arg: StrategyArg) -> Strategy {
+    match arg {
+        StrategyArg::Uniform => Strategy::Uniform,
+        StrategyArg::Brdf => Strategy::Brdf,
+        StrategyArg::Light => Strategy::Light,
+        StrategyArg::Mis => Strategy::Mis,
+    }
+}
+
+fn heuristic_of(arg: HeuristicArg) -> Heuristic {
+    match arg {
+        HeuristicArg::Balance => Heuristic::Balance,
+        HeuristicArg::Power => Heuristic::Power,
+    }
+}
+
+fn selection_of(arg: SelectionArg) -> LightSelection {
+    match arg {
+        SelectionArg::Each => LightSelection::Each,
+        SelectionArg::Uniform => LightSelection::Uniform,
+        SelectionArg::Power => LightSelection::Power,
+    }
 }
 
 fn render(args: RenderArgs) -> Result<()> {
