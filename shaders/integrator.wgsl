@@ -16,6 +16,8 @@ struct SurfaceHit {
     front_face: bool,
     material: u32,
     light: u32,
+    // Texture coordinates (TEXCOORD_0.xy, TEXCOORD_1.xy); zero without textures.
+    uvs: vec4f,
 }
 
 fn is_finite(x: f32) -> bool {
@@ -49,11 +51,13 @@ fn surface_at(hit: Hit, ray_dir: vec3f) -> SurfaceHit {
     if dot(ns, ng) < 0.0 {
         ns = -ns;
     }
+    let uvs = surface_uvs(hit.tri, hit.b1, hit.b2);
+    ns = mapped_normal(materials[sh.material], uvs, hit.tri, ns);
     // A shading normal that faces away from the viewer would make the BRDF vanish: fall back.
     if dot(ns, -ray_dir) <= 0.0 {
         ns = ng;
     }
-    return SurfaceHit(p, ng, ns, front, sh.material, sh.light);
+    return SurfaceHit(p, ng, ns, front, sh.material, sh.light, uvs);
 }
 
 // Radiance a hit surface emits back along the ray: one-sided unless the material is doubleSided.
@@ -63,7 +67,7 @@ fn emitted_radiance(s: SurfaceHit) -> vec3f {
     }
     let m = materials[s.material];
     if s.front_face || m.double_sided != 0u {
-        return m.emission;
+        return m.emission * emission_texture(m, s.uvs);
     }
     return vec3f(0.0);
 }
@@ -221,7 +225,7 @@ fn estimate_radiance(ray: Ray, rng: ptr<function, u32>, rays: ptr<function, u32>
     }
     let s = surface_at(hit, ray.dir);
     let f = frame_from_normal(s.ns);
-    let c = ShadingContext(s, f, frame_to_local(f, -ray.dir), bsdf_params(materials[s.material]));
+    let c = ShadingContext(s, f, frame_to_local(f, -ray.dir), bsdf_params(textured_material(materials[s.material], s.uvs)));
     if frame.hide_emitters == 0u {
         e.emitted = emitted_radiance(s);
     }

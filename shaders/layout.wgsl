@@ -22,6 +22,7 @@ const LIGHT_SPOT: u32 = 2u;
 const LIGHT_DIRECTIONAL: u32 = 3u;
 
 const NO_LIGHT: u32 = 0xffffffffu;
+const NO_TEXTURE: u32 = 0xffffffffu;
 
 // Pinhole camera: a primary ray through film position (sx, sy) in [-1, 1]^2 has the direction
 // forward + sx * right + sy * up (right and up already scaled by tan(fov/2) and the aspect).
@@ -101,9 +102,40 @@ struct Material {
     specular: f32,
     // 1 when the material is doubleSided: emitters then emit from both faces.
     double_sided: u32,
-    _pad0: u32,
+    // normalTexture.scale: multiplies the x and y of the tangent-space normal.
+    normal_scale: f32,
     _pad1: u32,
     _pad2: u32,
+    // Textures (index NO_TEXTURE: none), read by shaders/textures.wgsl.
+    base_color_texture: TextureRef,
+    metallic_roughness_texture: TextureRef,
+    emissive_texture: TextureRef,
+    normal_texture: TextureRef,
+}
+
+// A material's use of a texture: which one, which TEXCOORD set, and the KHR_texture_transform
+// as the rows of a 2x3 affine map, uv' = (dot(row0, (u, v, 1)), dot(row1, (u, v, 1))).
+struct TextureRef {
+    row0: vec3f,
+    index: u32,
+    row1: vec3f,
+    tex_coord: u32,
+}
+
+// One texture in `texels`: RGBA8 texels [offset, offset + width * height), rows top first.
+// sampling: bits 0-1 wrapS, 2-3 wrapT (WRAP_*), bit 4 magFilter NEAREST.
+struct TextureInfo {
+    offset: u32,
+    width: u32,
+    height: u32,
+    sampling: u32,
+}
+
+// Texture coordinates of a triangle's vertices, in BVH order: (TEXCOORD_0.xy, TEXCOORD_1.xy).
+struct TriangleUvs {
+    v0: vec4f,
+    v1: vec4f,
+    v2: vec4f,
 }
 
 // One light. Area lights own emitter triangles [first_tri, first_tri + tri_count).

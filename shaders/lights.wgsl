@@ -97,7 +97,7 @@ fn sample_area_light(light: Light, x: vec3f, u: vec3f) -> LightSample {
     if dist_sq <= 0.0 || !emits_towards(light.double_sided != 0u, n_l, wi) {
         return s;
     }
-    s.value = light.intensity;
+    s.value = light.intensity * emitter_emission_texture(ti, b.x, b.y);
     s.pdf = area_to_solid_angle_pdf(dist_sq, dot(n_l, wi), light.area);
     return s;
 }

@@ -25,6 +25,11 @@ const TEST_PDF_LIGHT: u32 = 14u;
 const TEST_EVAL_BSDF: u32 = 20u;
 // test_in[i] = (n_f, p_f, n_g, p_g): out[i] = (w_f, w_g, balance w_f, power w_f).
 const TEST_MIS_WEIGHTS: u32 = 21u;
+// test_in[i] = (u, v, texture index, 1 for sRGB): out[i] = texture_lookup (textures.wgsl).
+const TEST_TEXTURE_LOOKUP: u32 = 30u;
+// test_in[i] = (TEXCOORD_0.xy, TEXCOORD_1.xy): the test material with its textures applied,
+// out[2i] = (base colour, metallic), out[2i + 1] = (roughness, emissive texture rgb).
+const TEST_TEXTURED_MATERIAL: u32 = 31u;
 
 // pdf with which the light strategy picks direction wi at `point` on light test.light_index,
 // found the way a BRDF sample finds it: by tracing the ray to the emitter.
@@ -118,6 +123,15 @@ fn run_test(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) 
                 balance_heuristic(q.x, q.y, q.z, q.w),
                 power_heuristic(q.x, q.y, q.z, q.w),
             );
+        }
+        case TEST_TEXTURE_LOOKUP: {
+            let q = test_in[i];
+            test_out[i] = texture_lookup(u32(q.z), q.xy, q.w != 0.0);
+        }
+        case TEST_TEXTURED_MATERIAL: {
+            let m = textured_material(test.material, test_in[i]);
+            test_out[2u * i] = vec4f(m.base_color, m.metallic);
+            test_out[2u * i + 1u] = vec4f(m.roughness, emission_texture(test.material, test_in[i]));
         }
         default: {}
     }

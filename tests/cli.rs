@@ -186,7 +186,7 @@ fn help_explains_the_sample_counts() {
 #[test]
 fn generated_assets_match_the_shipped_files() {
     let dir = out_dir();
-    for name in ["cornell-box", "veach-mis"] {
+    for name in veach::assets::SHIPPED_SCENES {
         let out = dir.join(format!("{name}.gltf"));
         let o = veach(&["generate", name, "-o", out.to_str().unwrap()]);
         assert!(o.status.success(), "{}", stderr(&o));

@@ -23,7 +23,8 @@ fn write_json(name: &str, v: &serde_json::Value) -> PathBuf {
 fn triangle_json() -> serde_json::Value {
     let mut g = GltfBuilder::new();
     let m = g.material(&MaterialDesc::lambert("grey", Vec3::splat(0.5)));
-    let tri = MeshData { positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], normals: None, indices: vec![0, 1, 2] };
+    let tri =
+        MeshData { positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], normals: None, uvs: None, indices: vec![0, 1, 2] };
     g.add_mesh("tri", &tri, m, glam::Mat4::IDENTITY);
     g.to_json()
 }
@@ -40,7 +41,8 @@ fn a_valid_file_loads_with_transforms_materials_and_lights() {
     let mut g = GltfBuilder::new();
     let light =
         g.material(&MaterialDesc { double_sided: true, ..MaterialDesc::emitter("lamp", Vec3::new(2.0, 4.0, 8.0)) });
-    let tri = MeshData { positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], normals: None, indices: vec![0, 1, 2] };
+    let tri =
+        MeshData { positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], normals: None, uvs: None, indices: vec![0, 1, 2] };
     g.add_mesh(
         "lamp",
         &tri,
@@ -123,7 +125,8 @@ fn missing_positions_are_an_error_naming_the_mesh() {
 fn out_of_range_indices_are_an_error_naming_the_mesh() {
     let mut g = GltfBuilder::new();
     let m = g.material(&MaterialDesc::lambert("grey", Vec3::splat(0.5)));
-    let tri = MeshData { positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], normals: None, indices: vec![0, 1, 7] };
+    let tri =
+        MeshData { positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], normals: None, uvs: None, indices: vec![0, 1, 7] };
     g.add_mesh("broken", &tri, m, glam::Mat4::IDENTITY);
     let p = dir().join("bad-index.gltf");
     g.write(&p).unwrap();

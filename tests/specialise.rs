@@ -35,6 +35,7 @@ fn specialised_kernels_render_the_generic_kernels_image() {
     for (name, scene) in [
         ("cornell-box", shipped_scene("cornell-box")),
         ("veach-mis", shipped_scene("veach-mis")),
+        ("textured", shipped_scene("textured")),
         ("point-lit plane", point_lit_plane()),
     ] {
         let camera = scene.camera(None).unwrap();

@@ -256,3 +256,24 @@ fn brdf_and_mis_agree_on_perfect_mirrors() {
         ],
     );
 }
+
+/// Textures of every kind (shipped `textured` scene): base colour, metallic-roughness, normal
+/// map and an emissive texture on the light. Light samples read the emissive texture at the
+/// sampled point and BRDF samples at the point they hit; if the two disagreed, light and BRDF
+/// sampling would converge to different images.
+#[test]
+fn all_strategies_agree_on_the_textured_scene() {
+    check_scene(
+        "textured",
+        32,
+        24,
+        8,
+        config("reference", Strategy::Mis, 256, 8, 8, Each, Balance),
+        &[
+            config("uniform", Strategy::Uniform, 32, 0, 256, Each, Balance),
+            config("brdf", Strategy::Brdf, 64, 0, 32, Each, Balance),
+            config("light", Strategy::Light, 64, 8, 0, Each, Balance),
+            config("mis-power", Strategy::Mis, 64, 4, 4, Power, PowerHeuristic),
+        ],
+    );
+}

@@ -673,6 +673,14 @@ fn info(path: &Path) -> Result<()> {
         };
         println!("    {} ({kind})", l.name);
     }
+    if !scene.textures.is_empty() {
+        println!("  textures: {}", scene.textures.len());
+        for t in &scene.textures {
+            let wrap = format!("{:?} x {:?}", t.wrap_s, t.wrap_t);
+            let filter = if t.nearest { "nearest" } else { "bilinear" };
+            println!("    {}: {}x{}, {wrap}, {filter}", t.name, t.width, t.height);
+        }
+    }
     println!("  features: {}", veach::features::SceneFeatures::detect(&scene).describe());
     println!("  cameras: {}", scene.cameras.len());
     for c in &scene.cameras {

@@ -88,7 +88,7 @@ impl Accumulation {
             if settings.specialise { KernelKey::specialised(&scene.features, settings) } else { KernelKey::generic() };
         let creation_start = Instant::now();
         let (kernel, created) = renderer.kernel(key)?;
-        let bind_group = renderer.bind_group(&kernel.layout, &params_buffer, scene, &outputs, &[]);
+        let bind_group = renderer.bind_group(&kernel, &params_buffer, scene, &outputs, &[]);
         let params = renderer.frame_params(scene.light_count, settings, camera);
         let mut acc = Accumulation {
             gpu: gpu.clone(),

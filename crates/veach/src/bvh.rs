@@ -72,7 +72,7 @@ mod tests {
             for j in 0..n {
                 let o = Vec3::new(i as f32, j as f32, (i * j % 7) as f32 * 0.1);
                 let p = [o, o + Vec3::X, o + Vec3::Y];
-                out.push(Triangle { p, n: [Vec3::Z; 3], material: 0 });
+                out.push(Triangle { p, n: [Vec3::Z; 3], uv: Default::default(), material: 0 });
             }
         }
         out

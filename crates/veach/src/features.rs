@@ -23,8 +23,11 @@ pub struct SceneFeatures {
     /// Some used material is a perfect mirror (roughness 0).
     pub any_mirror: bool,
     pub double_sided_emitters: bool,
-    /// Textures in use (none are read yet).
-    pub textures: bool,
+    /// Textures in use, by kind.
+    pub base_color_texture: bool,
+    pub metallic_roughness_texture: bool,
+    pub emissive_texture: bool,
+    pub normal_texture: bool,
 }
 
 impl SceneFeatures {
@@ -47,8 +50,16 @@ impl SceneFeatures {
             any_glossy: materials().any(|m| glossy(&m)),
             any_mirror: materials().any(|m| glossy(&m) && m.roughness <= 0.0),
             double_sided_emitters: has(|k| matches!(k, LightKind::Area { double_sided: true, .. })),
-            textures: false,
+            base_color_texture: materials().any(|m| m.base_color_texture.is_some()),
+            metallic_roughness_texture: materials().any(|m| m.metallic_roughness_texture.is_some()),
+            // An emissive texture matters only where the emissive factor is not zero.
+            emissive_texture: materials().any(|m| m.emissive_texture.is_some() && m.is_emissive()),
+            normal_texture: materials().any(|m| m.normal_texture.is_some()),
         }
+    }
+
+    pub fn textures(&self) -> bool {
+        self.base_color_texture || self.metallic_roughness_texture || self.emissive_texture || self.normal_texture
     }
 
     pub fn delta_lights(&self) -> bool {
@@ -73,7 +84,10 @@ impl SceneFeatures {
         add(self.any_metal, "metal");
         add(self.any_mirror, "mirrors");
         add(self.double_sided_emitters, "double-sided emitters");
-        add(self.textures, "textures");
+        add(self.base_color_texture, "base colour textures");
+        add(self.metallic_roughness_texture, "metallic-roughness textures");
+        add(self.emissive_texture, "emissive textures");
+        add(self.normal_texture, "normal textures");
         if parts.is_empty() { "nothing to light".into() } else { parts.join(", ") }
     }
 }
@@ -88,11 +102,24 @@ pub struct KernelKey {
     pub glossy: bool,
     pub mirrors: bool,
     pub aovs: bool,
+    /// The texture module (shaders/textures.wgsl and its bindings) is in the kernel...
+    pub textures: bool,
+    /// ...with lookups of these kinds: base colour, metallic-roughness, emissive, normal.
+    pub texture_kinds: [bool; 4],
 }
 
 impl KernelKey {
     pub fn generic() -> KernelKey {
-        KernelKey { strategy: None, area_lights: true, delta_lights: true, glossy: true, mirrors: true, aovs: true }
+        KernelKey {
+            strategy: None,
+            area_lights: true,
+            delta_lights: true,
+            glossy: true,
+            mirrors: true,
+            aovs: true,
+            textures: true,
+            texture_kinds: [true; 4],
+        }
     }
 
     /// The kernel specialised to a scene's features and a render's settings.
@@ -104,6 +131,13 @@ impl KernelKey {
             glossy: features.any_glossy,
             mirrors: features.any_mirror,
             aovs: settings.write_aovs,
+            textures: features.textures(),
+            texture_kinds: [
+                features.base_color_texture,
+                features.metallic_roughness_texture,
+                features.emissive_texture,
+                features.normal_texture,
+            ],
         }
     }
 
@@ -117,13 +151,22 @@ impl KernelKey {
             Some(Strategy::Light) => crate::gpu::layout::STRATEGY_LIGHT as f64,
             Some(Strategy::Mis) => crate::gpu::layout::STRATEGY_MIS as f64,
         };
-        vec![
+        let mut constants = vec![
             ("STRATEGY", strategy),
             ("HAS_AREA_LIGHTS", flag(self.area_lights)),
             ("HAS_DELTA_LIGHTS", flag(self.delta_lights)),
             ("HAS_GLOSSY", flag(self.glossy)),
             ("HAS_MIRRORS", flag(self.mirrors)),
             ("HAS_AOVS", flag(self.aovs)),
-        ]
+        ];
+        // These exist only in textures.wgsl.
+        if self.textures {
+            let [base, mr, emissive, normal] = self.texture_kinds;
+            constants.push(("HAS_BASE_COLOR_TEXTURE", flag(base)));
+            constants.push(("HAS_METALLIC_ROUGHNESS_TEXTURE", flag(mr)));
+            constants.push(("HAS_EMISSIVE_TEXTURE", flag(emissive)));
+            constants.push(("HAS_NORMAL_TEXTURE", flag(normal)));
+        }
+        constants
     }
 }

@@ -237,6 +237,8 @@ pub struct SceneUploadStats {
 /// settings and camera.
 pub struct GpuScene {
     pub(crate) buffers: Vec<wgpu::Buffer>,
+    /// tri_uvs, texture_infos, texels, emitter_source: only for scenes with textures.
+    pub(crate) texture_buffers: Option<[wgpu::Buffer; 4]>,
     pub(crate) light_count: u32,
     pub stats: SceneUploadStats,
     /// What the scene needs of the kernel.
@@ -247,6 +249,7 @@ pub struct GpuScene {
 /// which lavapipe does at the first dispatch; `Renderer::render` reports it as
 /// `RenderOutput::kernel_creation`, outside the render time.
 pub(crate) struct Kernel {
+    pub(crate) textures: bool,
     pub(crate) pipeline: wgpu::ComputePipeline,
     pub(crate) layout: wgpu::BindGroupLayout,
 }
@@ -285,13 +288,14 @@ impl Renderer {
         let (pipeline, layout) = bindings::create_pipeline(
             &self.gpu.device,
             "veach render kernel",
-            shaders::render_kernel_source(),
+            shaders::render_kernel_source(key.textures),
             shaders::RENDER_ENTRY_POINT,
+            key.textures,
             false,
             &key.constants(),
         )
         .map_err(Error::Gpu)?;
-        let kernel = Arc::new(Kernel { pipeline, layout });
+        let kernel = Arc::new(Kernel { textures: key.textures, pipeline, layout });
         self.kernels.lock().expect("kernel cache").insert(key, kernel.clone());
         Ok((kernel, true))
     }
@@ -338,21 +342,37 @@ impl Renderer {
             storage_buffer(device, "emitter_tris", &arrays.emitter_tris),
             storage_buffer(device, "light_power_cdf", &arrays.light_power_cdf),
         ];
-        stats.gpu_scene_bytes = buffers.iter().map(|b| b.size()).sum();
+        // Scenes without textures upload none: their kernels do not bind any.
+        let texture_buffers = arrays.textures.as_ref().map(|t| {
+            [
+                storage_buffer(device, "tri_uvs", &t.tri_uvs),
+                storage_buffer(device, "texture_infos", &t.texture_infos),
+                storage_buffer(device, "texels", &t.texels),
+                storage_buffer(device, "emitter_source", &t.emitter_source),
+            ]
+        });
+        stats.gpu_scene_bytes = buffers.iter().chain(texture_buffers.iter().flatten()).map(|b| b.size()).sum();
         stats.upload = upload_start.elapsed();
-        Ok(GpuScene { buffers, light_count: scene.lights.len() as u32, stats, features: SceneFeatures::detect(scene) })
+        Ok(GpuScene {
+            buffers,
+            texture_buffers,
+            light_count: scene.lights.len() as u32,
+            stats,
+            features: SceneFeatures::detect(scene),
+        })
     }
 
     /// The bind group of a dispatch, in the binding order of `gpu::bindings`: frame parameters,
     /// the scene, the five output buffers and (test kernels only) the test bindings.
     pub(crate) fn bind_group(
         &self,
-        layout: &wgpu::BindGroupLayout,
+        kernel: &Kernel,
         frame: &wgpu::Buffer,
         scene: &GpuScene,
         outputs: &[&wgpu::Buffer; 5],
         test_io: &[(u32, &wgpu::Buffer)],
     ) -> wgpu::BindGroup {
+        let layout = &kernel.layout;
         let mut entries = vec![wgpu::BindGroupEntry { binding: bindings::FRAME, resource: frame.as_entire_binding() }];
         for (i, b) in scene.buffers.iter().enumerate() {
             entries.push(wgpu::BindGroupEntry {
@@ -363,6 +383,25 @@ impl Renderer {
         for (i, b) in outputs.iter().enumerate() {
             entries.push(wgpu::BindGroupEntry {
                 binding: bindings::OUTPUT_FIRST + i as u32,
+                resource: b.as_entire_binding(),
+            });
+        }
+        // The generic kernel reads textures only where a material has one: a scene without
+        // textures binds one-element placeholders there.
+        let placeholders;
+        let texture_buffers = match (&scene.texture_buffers, kernel.textures) {
+            (_, false) => None,
+            (Some(t), true) => Some(t),
+            (None, true) => {
+                // One zeroed element of the largest of the four element types (TriangleUvs).
+                placeholders =
+                    [0u32; 4].map(|_| storage_buffer::<layout::TriangleUvs>(&self.gpu.device, "no textures", &[]));
+                Some(&placeholders)
+            }
+        };
+        for (i, b) in texture_buffers.into_iter().flatten().enumerate() {
+            entries.push(wgpu::BindGroupEntry {
+                binding: bindings::TEXTURES_FIRST + i as u32,
                 resource: b.as_entire_binding(),
             });
         }

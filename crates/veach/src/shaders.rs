@@ -1,6 +1,8 @@
 //! The WGSL kernel, composed at load time from one file per concept in `shaders/`.
 
 /// The shader files in the order they are joined. Later files use what earlier ones declare.
+/// `TEXTURES` marks where the texture module goes: `textures.wgsl` for scenes with textures
+/// (and the generic kernel), `textures_none.wgsl` (same functions, no bindings) otherwise.
 pub const SHADER_FILES: &[(&str, &str)] = &[
     ("layout.wgsl", include_str!("../../../shaders/layout.wgsl")),
     ("features.wgsl", include_str!("../../../shaders/features.wgsl")),
@@ -8,20 +10,25 @@ pub const SHADER_FILES: &[(&str, &str)] = &[
     ("sampling.wgsl", include_str!("../../../shaders/sampling.wgsl")),
     ("camera.wgsl", include_str!("../../../shaders/camera.wgsl")),
     ("traverse.wgsl", include_str!("../../../shaders/traverse.wgsl")),
+    TEXTURES,
     ("bsdf.wgsl", include_str!("../../../shaders/bsdf.wgsl")),
     ("lights.wgsl", include_str!("../../../shaders/lights.wgsl")),
     ("mis.wgsl", include_str!("../../../shaders/mis.wgsl")),
     ("integrator.wgsl", include_str!("../../../shaders/integrator.wgsl")),
 ];
 
+const TEXTURES: (&str, &str) = ("textures", "");
+const TEXTURES_ON: (&str, &str) = ("textures.wgsl", include_str!("../../../shaders/textures.wgsl"));
+const TEXTURES_OFF: (&str, &str) = ("textures_none.wgsl", include_str!("../../../shaders/textures_none.wgsl"));
+
 /// The test kernels, joined after the render kernel's files.
 pub const TEST_KERNELS: (&str, &str) = ("test_kernels.wgsl", include_str!("../../../shaders/test_kernels.wgsl"));
 pub const TEST_ENTRY_POINT: &str = "run_test";
 
-/// The render kernel's source followed by the test kernels (see `gpu::test_kernel`).
+/// The render kernel's source (with textures) followed by the test kernels (see `gpu::test_kernel`).
 pub fn test_kernel_source() -> String {
     let (name, text) = TEST_KERNELS;
-    format!("{}// ---- shaders/{name} ----\n{text}\n", render_kernel_source())
+    format!("{}// ---- shaders/{name} ----\n{text}\n", render_kernel_source(true))
 }
 
 /// Name of the compute entry point in `integrator.wgsl`.
@@ -29,9 +36,14 @@ pub const RENDER_ENTRY_POINT: &str = "render";
 
 /// The whole kernel source. Each file is preceded by a marker comment so that a line number in
 /// a WGSL error can be traced back to its file.
-pub fn render_kernel_source() -> String {
+pub fn render_kernel_source(textures: bool) -> String {
     let mut source = String::new();
-    for (name, text) in SHADER_FILES {
+    for &file in SHADER_FILES {
+        let (name, text) = match file {
+            TEXTURES if textures => TEXTURES_ON,
+            TEXTURES => TEXTURES_OFF,
+            other => other,
+        };
         source.push_str(&format!("// ---- shaders/{name} ----\n"));
         source.push_str(text);
         source.push('\n');
@@ -54,12 +66,17 @@ mod tests {
 
     #[test]
     fn all_wgsl_validates_with_naga() {
-        let source = render_kernel_source();
-        let module = validate_wgsl(&source).unwrap_or_else(|e| panic!("WGSL invalid:\n{e}"));
-        assert!(
-            module.entry_points.iter().any(|e| e.name == RENDER_ENTRY_POINT && e.stage == naga::ShaderStage::Compute),
-            "no compute entry point `{RENDER_ENTRY_POINT}`"
-        );
+        for textures in [false, true] {
+            let source = render_kernel_source(textures);
+            let module = validate_wgsl(&source).unwrap_or_else(|e| panic!("WGSL invalid (textures {textures}):\n{e}"));
+            assert!(
+                module
+                    .entry_points
+                    .iter()
+                    .any(|e| e.name == RENDER_ENTRY_POINT && e.stage == naga::ShaderStage::Compute),
+                "no compute entry point `{RENDER_ENTRY_POINT}`"
+            );
+        }
     }
 
     #[test]

@@ -1,8 +1,9 @@
 //! A small glTF 2.0 writer for scenes built in code: the shipped assets and the test scenes.
 //! Geometry goes into one base64-embedded buffer, so every scene is a single `.gltf` file.
 
+use crate::scene::Wrap;
 use base64::Engine;
-use glam::{Mat4, Quat, Vec3};
+use glam::{Mat4, Quat, Vec2, Vec3};
 use serde_json::{Value, json};
 use std::path::Path;
 
@@ -18,6 +19,45 @@ pub struct MaterialDesc {
     pub emission: Vec3,
     pub emissive_strength: f32,
     pub double_sided: bool,
+    pub textures: MaterialTextures,
+}
+
+/// A material's textures (indices returned by `GltfBuilder::texture`).
+#[derive(Clone, Debug, Default)]
+pub struct MaterialTextures {
+    pub base_color: Option<TextureUse>,
+    pub metallic_roughness: Option<TextureUse>,
+    pub emissive: Option<TextureUse>,
+    /// With normalTexture.scale.
+    pub normal: Option<(TextureUse, f32)>,
+}
+
+/// A textureInfo: texture, TEXCOORD set and an optional KHR_texture_transform.
+#[derive(Clone, Copy, Debug)]
+pub struct TextureUse {
+    pub texture: usize,
+    pub tex_coord: u32,
+    /// (offset, rotation in radians, scale)
+    pub transform: Option<(Vec2, f32, Vec2)>,
+}
+
+impl TextureUse {
+    pub fn new(texture: usize) -> TextureUse {
+        TextureUse { texture, tex_coord: 0, transform: None }
+    }
+}
+
+/// An image with its sampler, embedded as PNG.
+#[derive(Clone, Debug)]
+pub struct TextureDesc {
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    /// RGBA8, rows top first.
+    pub rgba: Vec<u8>,
+    pub wrap_s: Wrap,
+    pub wrap_t: Wrap,
+    pub nearest: bool,
 }
 
 impl MaterialDesc {
@@ -32,6 +72,7 @@ impl MaterialDesc {
             emission: Vec3::ZERO,
             emissive_strength: 1.0,
             double_sided: false,
+            textures: MaterialTextures::default(),
         }
     }
 
@@ -61,11 +102,57 @@ pub struct GltfBuilder {
     nodes: Vec<Value>,
     cameras: Vec<Value>,
     lights: Vec<Value>,
+    images: Vec<Value>,
+    samplers: Vec<Value>,
+    textures: Vec<Value>,
+    uses_texture_transform: bool,
+}
+
+fn wrap_code(w: Wrap) -> u32 {
+    match w {
+        Wrap::Repeat => 10497,
+        Wrap::ClampToEdge => 33071,
+        Wrap::MirroredRepeat => 33648,
+    }
 }
 
 impl GltfBuilder {
     pub fn new() -> Self {
         Self::default()
+    }
+
+    /// An embedded PNG texture with its own sampler; returns the texture index.
+    pub fn texture(&mut self, t: &TextureDesc) -> usize {
+        let mut png = std::io::Cursor::new(Vec::new());
+        image::write_buffer_with_format(
+            &mut png,
+            &t.rgba,
+            t.width,
+            t.height,
+            image::ExtendedColorType::Rgba8,
+            image::ImageFormat::Png,
+        )
+        .expect("PNG encoding of an in-memory image");
+        let uri = format!("data:image/png;base64,{}", base64::engine::general_purpose::STANDARD.encode(png.get_ref()));
+        self.images.push(json!({ "name": t.name, "uri": uri }));
+        let mut sampler = json!({ "wrapS": wrap_code(t.wrap_s), "wrapT": wrap_code(t.wrap_t), "minFilter": 9729 });
+        sampler["magFilter"] = json!(if t.nearest { 9728 } else { 9729 });
+        self.samplers.push(sampler);
+        self.textures.push(json!({
+            "name": t.name, "source": self.images.len() - 1, "sampler": self.samplers.len() - 1
+        }));
+        self.textures.len() - 1
+    }
+
+    fn texture_info(&mut self, u: &TextureUse) -> Value {
+        let mut v = json!({ "index": u.texture, "texCoord": u.tex_coord });
+        if let Some((offset, rotation, scale)) = u.transform {
+            self.uses_texture_transform = true;
+            v["extensions"] = json!({ "KHR_texture_transform": {
+                "offset": offset.to_array(), "rotation": rotation, "scale": scale.to_array()
+            }});
+        }
+        v
     }
 
     pub fn material(&mut self, m: &MaterialDesc) -> usize {
@@ -93,6 +180,20 @@ impl GltfBuilder {
         }
         if !ext.is_empty() {
             v["extensions"] = Value::Object(ext);
+        }
+        let t = &m.textures;
+        if let Some(u) = &t.base_color {
+            v["pbrMetallicRoughness"]["baseColorTexture"] = self.texture_info(u);
+        }
+        if let Some(u) = &t.metallic_roughness {
+            v["pbrMetallicRoughness"]["metallicRoughnessTexture"] = self.texture_info(u);
+        }
+        if let Some(u) = &t.emissive {
+            v["emissiveTexture"] = self.texture_info(u);
+        }
+        if let Some((u, scale)) = &t.normal {
+            v["normalTexture"] = self.texture_info(u);
+            v["normalTexture"]["scale"] = json!(scale);
         }
         self.materials.push(v);
         self.materials.len() - 1
@@ -130,6 +231,13 @@ impl GltfBuilder {
         let mut attributes = json!({ "POSITION": pos });
         if let Some(n) = &mesh.normals {
             attributes["NORMAL"] = json!(self.vec3_accessor(n, false));
+        }
+        if let Some(uv) = &mesh.uvs {
+            let flat: Vec<f32> = uv.iter().flat_map(|v| v.to_array()).collect();
+            let view = self.push_view(bytemuck::cast_slice(&flat), 34962);
+            self.accessors
+                .push(json!({ "bufferView": view, "componentType": 5126, "count": uv.len(), "type": "VEC2" }));
+            attributes["TEXCOORD_0"] = json!(self.accessors.len() - 1);
         }
         let view = self.push_view(bytemuck::cast_slice(&mesh.indices), 34963);
         self.accessors.push(json!({
@@ -211,6 +319,14 @@ impl GltfBuilder {
             root["extensions"] = json!({ "KHR_lights_punctual": { "lights": self.lights } });
             used.push("KHR_lights_punctual");
         }
+        if !self.textures.is_empty() {
+            root["images"] = json!(self.images);
+            root["samplers"] = json!(self.samplers);
+            root["textures"] = json!(self.textures);
+        }
+        if self.uses_texture_transform {
+            used.push("KHR_texture_transform");
+        }
         root["extensionsUsed"] = json!(used);
         root
     }
@@ -247,6 +363,8 @@ pub enum Punctual {
 pub struct MeshData {
     pub positions: Vec<Vec3>,
     pub normals: Option<Vec<Vec3>>,
+    /// TEXCOORD_0
+    pub uvs: Option<Vec<Vec2>>,
     pub indices: Vec<u32>,
 }
 
@@ -255,14 +373,25 @@ impl MeshData {
     pub fn quad(a: Vec3, b: Vec3, c: Vec3, d: Vec3, facing: Vec3) -> MeshData {
         let front = (b - a).cross(c - a).dot(facing) >= 0.0;
         let indices = if front { vec![0, 1, 2, 0, 2, 3] } else { vec![0, 2, 1, 0, 3, 2] };
-        MeshData { positions: vec![a, b, c, d], normals: None, indices }
+        // uv (0, 0) at a, (1, 0) at b, (1, 1) at c.
+        let uvs = vec![Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y];
+        MeshData { positions: vec![a, b, c, d], normals: None, uvs: Some(uvs), indices }
     }
 
     pub fn append(&mut self, other: &MeshData) {
         let base = self.positions.len() as u32;
+        let uvs = match (self.uvs.take(), &other.uvs) {
+            (Some(mut a), Some(b)) if a.len() == base as usize => {
+                a.extend_from_slice(b);
+                Some(a)
+            }
+            (None, Some(b)) if base == 0 => Some(b.clone()),
+            _ => None,
+        };
         self.positions.extend_from_slice(&other.positions);
         self.indices.extend(other.indices.iter().map(|i| i + base));
         self.normals = None;
+        self.uvs = uvs;
     }
 
     /// A closed prism over a convex footprint (4 corners at y = 0) of height `h`, faces outward.
@@ -286,6 +415,7 @@ impl MeshData {
     pub fn sphere(center: Vec3, radius: f32, slices: u32, stacks: u32) -> MeshData {
         let mut positions = Vec::new();
         let mut normals = Vec::new();
+        let mut uvs = Vec::new();
         for i in 0..=stacks {
             let theta = std::f32::consts::PI * i as f32 / stacks as f32;
             for j in 0..=slices {
@@ -293,6 +423,7 @@ impl MeshData {
                 let n = Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin());
                 positions.push(center + radius * n);
                 normals.push(n);
+                uvs.push(Vec2::new(j as f32 / slices as f32, i as f32 / stacks as f32));
             }
         }
         let row = slices + 1;
@@ -310,6 +441,6 @@ impl MeshData {
                 }
             }
         }
-        MeshData { positions, normals: Some(normals), indices }
+        MeshData { positions, normals: Some(normals), uvs: Some(uvs), indices }
     }
 }

@@ -3,18 +3,134 @@
 
 pub mod gltf_writer;
 
-use glam::{Mat4, Vec3};
-use gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
+use crate::scene::Wrap;
+use glam::{Mat4, Vec2, Vec3};
+use gltf_writer::{GltfBuilder, MaterialDesc, MaterialTextures, MeshData, TextureDesc, TextureUse};
 
 /// Names of the scenes `generate_scene` knows.
-pub const SHIPPED_SCENES: &[&str] = &["cornell-box", "veach-mis"];
+pub const SHIPPED_SCENES: &[&str] = &["cornell-box", "veach-mis", "textured"];
 
 pub fn generate_scene(name: &str) -> Option<GltfBuilder> {
     match name {
         "cornell-box" => Some(cornell_box()),
         "veach-mis" => Some(veach_mis()),
+        "textured" => Some(textured()),
         _ => None,
     }
+}
+
+/// A texture whose texel (x, y) is `f(x, y)` (RGBA8).
+pub fn texture_from(
+    name: &str,
+    size: (u32, u32),
+    wrap: (Wrap, Wrap),
+    nearest: bool,
+    f: impl Fn(u32, u32) -> [u8; 4],
+) -> TextureDesc {
+    let rgba = (0..size.1).flat_map(|y| (0..size.0).map(move |x| (x, y))).flat_map(|(x, y)| f(x, y)).collect();
+    TextureDesc { name: name.into(), width: size.0, height: size.1, rgba, wrap_s: wrap.0, wrap_t: wrap.1, nearest }
+}
+
+/// The checkerboard of the textured scene: 8×8 texels, two sRGB colours, nearest, repeated.
+pub fn checker_texture() -> TextureDesc {
+    texture_from("checker", (8, 8), (Wrap::Repeat, Wrap::Repeat), true, |x, y| {
+        if (x + y) % 2 == 0 { [230, 225, 210, 255] } else { [40, 90, 160, 255] }
+    })
+}
+
+/// Every texture kind veach reads, each compiled in only because this scene uses it: a floor
+/// with a checkerboard base colour (sRGB, nearest, repeated and turned by KHR_texture_transform),
+/// a wall with a bumpy normal map, a panel whose roughness and metalness vary by stripes
+/// (metallic-roughness texture), and an area light with an emissive texture.
+pub fn textured() -> GltfBuilder {
+    let mut g = GltfBuilder::new();
+    let checker = g.texture(&checker_texture());
+    let bumps = g.texture(&texture_from("bumps", (64, 64), (Wrap::Repeat, Wrap::Repeat), false, |x, y| {
+        // Normal of the height field h = 0.15 sin(2πx/16) sin(2πy/16), encoded as n * 0.5 + 0.5.
+        let k = std::f32::consts::TAU / 16.0;
+        let (dx, dy) = (
+            0.15 * k * (k * x as f32).cos() * (k * y as f32).sin(),
+            0.15 * k * (k * x as f32).sin() * (k * y as f32).cos(),
+        );
+        let n = Vec3::new(-dx * 4.0, dy * 4.0, 1.0).normalize();
+        let e = |v: f32| ((v * 0.5 + 0.5) * 255.0).round() as u8;
+        [e(n.x), e(n.y), e(n.z), 255]
+    }));
+    let stripes =
+        g.texture(&texture_from("roughness stripes", (8, 1), (Wrap::ClampToEdge, Wrap::ClampToEdge), true, |x, _| {
+            // G = roughness, B = metallic (glTF 2.0 §3.9.2).
+            [0, (80 + x * 24) as u8, if x % 2 == 0 { 255 } else { 0 }, 255]
+        }));
+    let glow = g.texture(&texture_from("glow", (16, 4), (Wrap::MirroredRepeat, Wrap::ClampToEdge), false, |x, _| {
+        let t = x as f32 / 15.0;
+        [255, (255.0 * (1.0 - 0.6 * t)) as u8, (255.0 * (0.3 + 0.7 * t)) as u8, 255]
+    }));
+
+    let floor = g.material(&MaterialDesc {
+        textures: MaterialTextures {
+            base_color: Some(TextureUse {
+                transform: Some((Vec2::new(0.1, 0.0), 0.3, Vec2::splat(3.0))),
+                ..TextureUse::new(checker)
+            }),
+            ..Default::default()
+        },
+        ..MaterialDesc::lambert("checker floor", Vec3::ONE)
+    });
+    let wall = g.material(&MaterialDesc {
+        textures: MaterialTextures {
+            normal: Some((
+                TextureUse { transform: Some((Vec2::ZERO, 0.0, Vec2::splat(4.0))), ..TextureUse::new(bumps) },
+                1.0,
+            )),
+            ..Default::default()
+        },
+        ..MaterialDesc::lambert("bumpy wall", Vec3::new(0.7, 0.65, 0.6))
+    });
+    let panel = g.material(&MaterialDesc {
+        metallic: 1.0,
+        specular: 1.0,
+        textures: MaterialTextures { metallic_roughness: Some(TextureUse::new(stripes)), ..Default::default() },
+        ..MaterialDesc::lambert("striped panel", Vec3::new(0.9, 0.7, 0.4))
+    });
+    let lamp = g.material(&MaterialDesc {
+        textures: MaterialTextures {
+            emissive: Some(TextureUse {
+                transform: Some((Vec2::ZERO, 0.0, Vec2::new(2.0, 1.0))),
+                ..TextureUse::new(glow)
+            }),
+            ..Default::default()
+        },
+        ..MaterialDesc::emitter("glowing lamp", Vec3::splat(12.0))
+    });
+
+    let id = Mat4::IDENTITY;
+    let v = Vec3::new;
+    g.add_mesh(
+        "floor",
+        &MeshData::quad(v(-3., 0., -3.), v(3., 0., -3.), v(3., 0., 3.), v(-3., 0., 3.), Vec3::Y),
+        floor,
+        id,
+    );
+    g.add_mesh(
+        "wall",
+        &MeshData::quad(v(-3., 0., -2.), v(3., 0., -2.), v(3., 3., -2.), v(-3., 3., -2.), Vec3::Z),
+        wall,
+        id,
+    );
+    g.add_mesh(
+        "panel",
+        &MeshData::quad(v(0.4, 0.0, -0.6), v(2.2, 0.0, 0.2), v(2.2, 1.6, 0.2), v(0.4, 1.6, -0.6), v(-0.4, 0.0, 1.0)),
+        panel,
+        id,
+    );
+    g.add_mesh(
+        "lamp",
+        &MeshData::quad(v(-1.5, 2.6, -1.0), v(1.0, 2.6, -1.0), v(1.0, 2.6, 0.2), v(-1.5, 2.6, 0.2), -Vec3::Y),
+        lamp,
+        id,
+    );
+    g.camera("camera", v(-0.5, 2.2, 5.5), v(0.2, 0.7, -0.8), 45.0);
+    g
 }
 
 /// The Cornell box with the dimensions of the Cornell Program of Computer Graphics' measured

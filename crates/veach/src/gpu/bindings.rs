@@ -9,12 +9,16 @@ pub const SCENE_COUNT: u32 = 7;
 /// Bindings 8..=12: accum, accum_sq, counters, aov_light, aov_brdf (read-write storage).
 pub const OUTPUT_FIRST: u32 = 8;
 pub const OUTPUT_COUNT: u32 = 5;
+/// Bindings 13..=16, only in kernels with textures.wgsl: tri_uvs, texture_infos, texels,
+/// emitter_source (read-only storage).
+pub const TEXTURES_FIRST: u32 = 13;
+pub const TEXTURES_COUNT: u32 = 4;
 /// Test kernels only: params (uniform), input (read-only storage), output (read-write).
 pub const TEST_PARAMS: u32 = 20;
 pub const TEST_INPUT: u32 = 21;
 pub const TEST_OUTPUT: u32 = 22;
 /// Storage buffers a render kernel binds (scene + outputs): a device must allow this many per stage.
-pub const STORAGE_BUFFERS_NEEDED: u32 = SCENE_COUNT + OUTPUT_COUNT;
+pub const STORAGE_BUFFERS_NEEDED: u32 = SCENE_COUNT + OUTPUT_COUNT + TEXTURES_COUNT;
 
 fn entry(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
@@ -29,11 +33,15 @@ fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     entry(binding, wgpu::BufferBindingType::Storage { read_only })
 }
 
-/// Layout entries of the render kernel; `with_test_io` adds the test kernels' bindings.
-pub fn layout_entries(with_test_io: bool) -> Vec<wgpu::BindGroupLayoutEntry> {
+/// Layout entries of the render kernel; `with_textures` adds the texture bindings and
+/// `with_test_io` the test kernels' bindings.
+pub fn layout_entries(with_textures: bool, with_test_io: bool) -> Vec<wgpu::BindGroupLayoutEntry> {
     let mut entries = vec![entry(FRAME, wgpu::BufferBindingType::Uniform)];
     entries.extend((SCENE_FIRST..SCENE_FIRST + SCENE_COUNT).map(|b| storage(b, true)));
     entries.extend((OUTPUT_FIRST..OUTPUT_FIRST + OUTPUT_COUNT).map(|b| storage(b, false)));
+    if with_textures {
+        entries.extend((TEXTURES_FIRST..TEXTURES_FIRST + TEXTURES_COUNT).map(|b| storage(b, true)));
+    }
     if with_test_io {
         entries.push(entry(TEST_PARAMS, wgpu::BufferBindingType::Uniform));
         entries.push(storage(TEST_INPUT, true));
@@ -49,13 +57,14 @@ pub fn create_pipeline(
     label: &str,
     source: String,
     entry_point: &str,
+    with_textures: bool,
     with_test_io: bool,
     constants: &[(&str, f64)],
 ) -> Result<(wgpu::ComputePipeline, wgpu::BindGroupLayout), String> {
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
     let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some(label),
-        entries: &layout_entries(with_test_io),
+        entries: &layout_entries(with_textures, with_test_io),
     });
     let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some(label),

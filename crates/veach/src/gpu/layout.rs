@@ -22,6 +22,7 @@ pub const LIGHT_SPOT: u32 = 2;
 pub const LIGHT_DIRECTIONAL: u32 = 3;
 
 pub const NO_LIGHT: u32 = u32::MAX;
+pub const NO_TEXTURE: u32 = u32::MAX;
 
 /// Threads per workgroup of the `render` entry point (`@workgroup_size(8, 8, 1)`).
 pub const WORKGROUP_SIZE: (u32, u32) = (8, 8);
@@ -102,9 +103,46 @@ pub struct Material {
     pub specular_color: [f32; 3],
     pub specular: f32,
     pub double_sided: u32,
-    pub _pad0: u32,
+    pub normal_scale: f32,
     pub _pad1: u32,
     pub _pad2: u32,
+    pub base_color_texture: TextureRef,
+    pub metallic_roughness_texture: TextureRef,
+    pub emissive_texture: TextureRef,
+    pub normal_texture: TextureRef,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Pod, Zeroable)]
+pub struct TextureRef {
+    pub row0: [f32; 3],
+    pub index: u32,
+    pub row1: [f32; 3],
+    pub tex_coord: u32,
+}
+
+impl Default for TextureRef {
+    /// No texture.
+    fn default() -> Self {
+        TextureRef { row0: [1.0, 0.0, 0.0], index: NO_TEXTURE, row1: [0.0, 1.0, 0.0], tex_coord: 0 }
+    }
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct TextureInfo {
+    pub offset: u32,
+    pub width: u32,
+    pub height: u32,
+    pub sampling: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct TriangleUvs {
+    pub v0: [f32; 4],
+    pub v1: [f32; 4],
+    pub v2: [f32; 4],
 }
 
 #[repr(C)]
@@ -191,7 +229,23 @@ pub fn rust_layouts() -> Vec<StructLayout> {
         layout!(BvhNode { min, first, max, count }),
         layout!(TriangleVerts { p0, p1, p2 }),
         layout!(TriangleShading { n0, material, n1, light, n2 }),
-        layout!(Material { base_color, metallic, emission, roughness, specular_color, specular, double_sided }),
+        layout!(Material {
+            base_color,
+            metallic,
+            emission,
+            roughness,
+            specular_color,
+            specular,
+            double_sided,
+            normal_scale,
+            base_color_texture,
+            metallic_roughness_texture,
+            emissive_texture,
+            normal_texture
+        }),
+        layout!(TextureRef { row0, index, row1, tex_coord }),
+        layout!(TextureInfo { offset, width, height, sampling }),
+        layout!(TriangleUvs { v0, v1, v2 }),
         layout!(Light {
             kind,
             first_tri,

@@ -2,7 +2,7 @@
 
 use super::layout::{self, NO_LIGHT};
 use crate::bvh::Bvh;
-use crate::scene::{LightKind, Scene};
+use crate::scene::{LightKind, Scene, TextureRef};
 use glam::Vec3;
 
 pub struct SceneArrays {
@@ -13,6 +13,60 @@ pub struct SceneArrays {
     pub lights: Vec<layout::Light>,
     pub emitter_tris: Vec<layout::EmitterTriangle>,
     pub light_power_cdf: Vec<f32>,
+    /// Only for scenes with textures (`shaders/textures.wgsl`).
+    pub textures: Option<TextureArrays>,
+}
+
+pub struct TextureArrays {
+    pub tri_uvs: Vec<layout::TriangleUvs>,
+    pub texture_infos: Vec<layout::TextureInfo>,
+    /// RGBA8 texels of every texture, one u32 each (red in the low byte, as unpack4x8unorm reads).
+    pub texels: Vec<u32>,
+    pub emitter_source: Vec<u32>,
+}
+
+fn texture_ref(r: &Option<TextureRef>) -> layout::TextureRef {
+    match r {
+        Some(r) => layout::TextureRef {
+            row0: r.transform[0].to_array(),
+            index: r.texture,
+            row1: r.transform[1].to_array(),
+            tex_coord: r.tex_coord,
+        },
+        None => layout::TextureRef::default(),
+    }
+}
+
+fn texture_arrays(scene: &Scene, bvh: &Bvh, emitter_scene_tris: &[u32]) -> TextureArrays {
+    let mut position_in_bvh = vec![0u32; scene.triangles.len()];
+    for (i, &t) in bvh.order.iter().enumerate() {
+        position_in_bvh[t as usize] = i as u32;
+    }
+    let mut tri_uvs: Vec<layout::TriangleUvs> = bvh
+        .order
+        .iter()
+        .map(|&t| {
+            let uv = &scene.triangles[t as usize].uv;
+            let v = |k: usize| [uv[0][k].x, uv[0][k].y, uv[1][k].x, uv[1][k].y];
+            layout::TriangleUvs { v0: v(0), v1: v(1), v2: v(2) }
+        })
+        .collect();
+    if tri_uvs.is_empty() {
+        tri_uvs.push(layout::TriangleUvs::default());
+    }
+    let mut texture_infos = Vec::new();
+    let mut texels = Vec::new();
+    for t in &scene.textures {
+        texture_infos.push(layout::TextureInfo {
+            offset: texels.len() as u32,
+            width: t.width,
+            height: t.height,
+            sampling: t.wrap_s as u32 | (t.wrap_t as u32) << 2 | (t.nearest as u32) << 4,
+        });
+        texels.extend(t.texels.iter().map(|&c| u32::from_le_bytes(c)));
+    }
+    let emitter_source = emitter_scene_tris.iter().map(|&t| position_in_bvh[t as usize]).collect();
+    TextureArrays { tri_uvs, texture_infos, texels, emitter_source }
 }
 
 fn luminance(c: Vec3) -> f32 {
@@ -47,6 +101,8 @@ pub fn build_scene_arrays(scene: &Scene, bvh: &Bvh) -> SceneArrays {
     let mut triangle_light = vec![NO_LIGHT; scene.triangles.len()];
     let mut lights = Vec::with_capacity(scene.lights.len());
     let mut emitter_tris = Vec::new();
+    // The scene triangle of each emitter triangle.
+    let mut emitter_scene_tris = Vec::new();
     for (li, light) in scene.lights.iter().enumerate() {
         let mut g = layout::Light::default();
         match &light.kind {
@@ -63,6 +119,7 @@ pub fn build_scene_arrays(scene: &Scene, bvh: &Bvh) -> SceneArrays {
                     let tri = &scene.triangles[t as usize];
                     running += tri.area() as f64;
                     triangle_light[t as usize] = li as u32;
+                    emitter_scene_tris.push(t);
                     emitter_tris.push(layout::EmitterTriangle {
                         p0: tri.p[0].to_array(),
                         // The last entry is exactly 1 so that u < 1 always finds a triangle.
@@ -151,9 +208,17 @@ pub fn build_scene_arrays(scene: &Scene, bvh: &Bvh) -> SceneArrays {
             specular_color: m.specular_color.to_array(),
             specular: m.specular,
             double_sided: m.double_sided as u32,
+            normal_scale: m.normal_scale,
+            base_color_texture: texture_ref(&m.base_color_texture),
+            metallic_roughness_texture: texture_ref(&m.metallic_roughness_texture),
+            emissive_texture: texture_ref(&m.emissive_texture),
+            normal_texture: texture_ref(&m.normal_texture),
             ..Default::default()
         })
         .collect();
+    let textures = crate::features::SceneFeatures::detect(scene)
+        .textures()
+        .then(|| texture_arrays(scene, bvh, &emitter_scene_tris));
 
     SceneArrays {
         bvh_nodes: bvh.nodes.clone(),
@@ -163,5 +228,6 @@ pub fn build_scene_arrays(scene: &Scene, bvh: &Bvh) -> SceneArrays {
         lights,
         emitter_tris,
         light_power_cdf,
+        textures,
     }
 }

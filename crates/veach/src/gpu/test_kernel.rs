@@ -4,7 +4,7 @@
 use super::bindings;
 use super::layout::{FrameParams, TestParams};
 use crate::error::{Error, Result};
-use crate::render::{GpuScene, Renderer, read_buffer};
+use crate::render::{GpuScene, Kernel, Renderer, read_buffer};
 use crate::shaders;
 use wgpu::util::DeviceExt;
 
@@ -23,12 +23,13 @@ pub mod routine {
     pub const PDF_LIGHT: u32 = 14;
     pub const EVAL_BSDF: u32 = 20;
     pub const MIS_WEIGHTS: u32 = 21;
+    pub const TEXTURE_LOOKUP: u32 = 30;
+    pub const TEXTURED_MATERIAL: u32 = 31;
 }
 
 pub struct TestKernel<'a> {
     renderer: &'a Renderer,
-    pipeline: wgpu::ComputePipeline,
-    layout: wgpu::BindGroupLayout,
+    kernel: Kernel,
 }
 
 const WORKGROUP: u32 = 64;
@@ -41,10 +42,11 @@ impl<'a> TestKernel<'a> {
             shaders::test_kernel_source(),
             shaders::TEST_ENTRY_POINT,
             true,
+            true,
             &[],
         )
         .map_err(Error::Gpu)?;
-        Ok(TestKernel { renderer, pipeline, layout })
+        Ok(TestKernel { renderer, kernel: Kernel { textures: true, pipeline, layout } })
     }
 
     /// Runs `params.routine` over `params.count` items; returns `outputs_per_item` vec4s per item.
@@ -86,7 +88,7 @@ impl<'a> TestKernel<'a> {
             (0..bindings::OUTPUT_COUNT).map(|_| storage("unused", 16, wgpu::BufferUsages::empty())).collect();
         let outputs = [&unused[0], &unused[1], &unused[2], &unused[3], &unused[4]];
         let bind_group = self.renderer.bind_group(
-            &self.layout,
+            &self.kernel,
             &frame_buffer,
             scene,
             &outputs,
@@ -102,7 +104,7 @@ impl<'a> TestKernel<'a> {
         let mut encoder = device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&self.pipeline);
+            pass.set_pipeline(&self.kernel.pipeline);
             pass.set_bind_group(0, &bind_group, &[]);
             pass.dispatch_workgroups(gx, gy, 1);
         }

@@ -2,10 +2,11 @@
 //! scene with node transforms applied, metallic-roughness materials, emissive triangles as
 //! area lights, KHR_lights_punctual lights and perspective cameras.
 
-use super::{Camera, Light, LightKind, Material, Scene, Triangle};
+use super::{Camera, Light, LightKind, Material, Scene, Texture, TextureRef, Triangle, Wrap};
 use crate::error::{Error, Result};
-use glam::{Mat3, Mat4, Vec3};
+use glam::{Mat3, Mat4, Vec2, Vec3};
 use gltf::mesh::Mode;
+use std::collections::HashMap;
 use std::path::Path;
 
 pub fn load_gltf(path: &Path) -> Result<Scene> {
@@ -73,9 +74,11 @@ fn load_gltf_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
 
     let mut scene = Scene::default();
     // Material i of the file is materials[i]; the default material is appended at the end.
+    let mut textures = TextureTable { path, base, buffers: &buffers, index: HashMap::new(), textures: Vec::new() };
     for m in doc.materials() {
-        scene.materials.push(convert_material(&m));
+        scene.materials.push(convert_material(&m, &mut textures)?);
     }
+    scene.textures = textures.textures;
     let default_material = scene.materials.len() as u32;
     scene.materials.push(Material::default());
 
@@ -85,13 +88,130 @@ fn load_gltf_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
     for node in gltf_scene.nodes() {
         loader.visit(&node, Mat4::IDENTITY, 0)?;
     }
-    if doc.textures().next().is_some() {
-        scene.warnings.push("textures are not supported yet and are ignored (factors are used)".into());
-    }
     Ok(scene)
 }
 
-fn convert_material(m: &gltf::Material) -> Material {
+/// The textures materials use, decoded once each (a glTF texture is an image + a sampler).
+struct TextureTable<'a> {
+    path: &'a Path,
+    base: &'a Path,
+    buffers: &'a [gltf::buffer::Data],
+    index: HashMap<usize, u32>,
+    textures: Vec<Texture>,
+}
+
+impl TextureTable<'_> {
+    fn texture(&mut self, t: &gltf::texture::Texture) -> Result<u32> {
+        if let Some(&i) = self.index.get(&t.index()) {
+            return Ok(i);
+        }
+        let image = t.source();
+        let name = t.name().or(image.name()).map(str::to_owned).unwrap_or_else(|| format!("texture {}", t.index()));
+        let data = gltf::image::Data::from_source(image.source(), Some(self.base), self.buffers)
+            .map_err(|e| Error::scene(self.path, format!("{name}: cannot load its image: {e}")))?;
+        let texels = rgba8(&data).ok_or_else(|| Error::scene(self.path, format!("{name}: the image is empty")))?;
+        let sampler = t.sampler();
+        let wrap = |w: gltf::texture::WrappingMode| match w {
+            gltf::texture::WrappingMode::Repeat => Wrap::Repeat,
+            gltf::texture::WrappingMode::ClampToEdge => Wrap::ClampToEdge,
+            gltf::texture::WrappingMode::MirroredRepeat => Wrap::MirroredRepeat,
+        };
+        let texture = Texture {
+            name,
+            width: data.width,
+            height: data.height,
+            texels,
+            wrap_s: wrap(sampler.wrap_s()),
+            wrap_t: wrap(sampler.wrap_t()),
+            nearest: sampler.mag_filter() == Some(gltf::texture::MagFilter::Nearest),
+        };
+        let i = self.textures.len() as u32;
+        self.textures.push(texture);
+        self.index.insert(t.index(), i);
+        Ok(i)
+    }
+
+    /// A textureInfo with its KHR_texture_transform (`transform` is the extension's JSON,
+    /// read by hand where the gltf crate has no accessor, as for normalTexture).
+    fn reference(
+        &mut self,
+        t: &gltf::texture::Texture,
+        tex_coord: u32,
+        transform: Option<&serde_json::Value>,
+    ) -> Result<TextureRef> {
+        let r = TextureRef::new(self.texture(t)?, tex_coord);
+        let Some(x) = transform else { return Ok(r) };
+        let pair = |key: &str, default: f32| -> Vec2 {
+            x.get(key)
+                .and_then(|v| v.as_array())
+                .map(|a| {
+                    let at = |i: usize| a.get(i).and_then(|v| v.as_f64()).map_or(default, |v| v as f32);
+                    Vec2::new(at(0), at(1))
+                })
+                .unwrap_or(Vec2::splat(default))
+        };
+        let rotation = x.get("rotation").and_then(|v| v.as_f64()).unwrap_or(0.0) as f32;
+        let mut r = r.with_transform(pair("offset", 0.0), rotation, pair("scale", 1.0));
+        if let Some(set) = x.get("texCoord").and_then(|v| v.as_u64()) {
+            r.tex_coord = set as u32;
+        }
+        Ok(r)
+    }
+
+    fn info(&mut self, info: Option<gltf::texture::Info>) -> Result<Option<TextureRef>> {
+        let Some(info) = info else { return Ok(None) };
+        let transform = info.extension_value("KHR_texture_transform").cloned();
+        self.reference(&info.texture(), info.tex_coord(), transform.as_ref()).map(Some)
+    }
+}
+
+/// Texels as RGBA8, channels missing from the image filled as a GPU would (0, 0, 1).
+fn rgba8(d: &gltf::image::Data) -> Option<Vec<[u8; 4]>> {
+    use gltf::image::Format;
+    let n = d.width as usize * d.height as usize;
+    if n == 0 {
+        return None;
+    }
+    let (channels, bytes_per_channel) = match d.format {
+        Format::R8 => (1, 1),
+        Format::R8G8 => (2, 1),
+        Format::R8G8B8 => (3, 1),
+        Format::R8G8B8A8 => (4, 1),
+        Format::R16 => (1, 2),
+        Format::R16G16 => (2, 2),
+        Format::R16G16B16 => (3, 2),
+        Format::R16G16B16A16 => (4, 2),
+        Format::R32G32B32FLOAT => (3, 4),
+        Format::R32G32B32A32FLOAT => (4, 4),
+    };
+    let stride = channels * bytes_per_channel;
+    if d.pixels.len() < n * stride {
+        return None;
+    }
+    let channel = |px: &[u8], c: usize| -> u8 {
+        let b = &px[c * bytes_per_channel..(c + 1) * bytes_per_channel];
+        match bytes_per_channel {
+            1 => b[0],
+            2 => (u16::from_le_bytes([b[0], b[1]]) >> 8) as u8,
+            _ => (f32::from_le_bytes([b[0], b[1], b[2], b[3]]).clamp(0.0, 1.0) * 255.0 + 0.5) as u8,
+        }
+    };
+    Some(
+        d.pixels
+            .chunks_exact(stride)
+            .take(n)
+            .map(|px| {
+                let mut t = [0, 0, 0, 255];
+                for (c, v) in t.iter_mut().enumerate().take(channels) {
+                    *v = channel(px, c);
+                }
+                t
+            })
+            .collect(),
+    )
+}
+
+fn convert_material(m: &gltf::Material, textures: &mut TextureTable) -> Result<Material> {
     let pbr = m.pbr_metallic_roughness();
     let [r, g, b, _] = pbr.base_color_factor();
     let (specular, specular_color) = match m.specular() {
@@ -99,7 +219,7 @@ fn convert_material(m: &gltf::Material) -> Material {
         None => (1.0, Vec3::ONE),
     };
     let strength = m.emissive_strength().unwrap_or(1.0);
-    Material {
+    Ok(Material {
         name: m.name().map(str::to_owned).unwrap_or_else(|| format!("material {}", m.index().unwrap_or(0))),
         base_color: Vec3::new(r, g, b).clamp(Vec3::ZERO, Vec3::ONE),
         metallic: pbr.metallic_factor().clamp(0.0, 1.0),
@@ -108,7 +228,18 @@ fn convert_material(m: &gltf::Material) -> Material {
         specular_color: specular_color.max(Vec3::ZERO),
         emission: (Vec3::from(m.emissive_factor()) * strength).max(Vec3::ZERO),
         double_sided: m.double_sided(),
-    }
+        base_color_texture: textures.info(pbr.base_color_texture())?,
+        metallic_roughness_texture: textures.info(pbr.metallic_roughness_texture())?,
+        emissive_texture: textures.info(m.emissive_texture())?,
+        normal_texture: match m.normal_texture() {
+            Some(n) => {
+                let transform = n.extension_value("KHR_texture_transform").cloned();
+                Some(textures.reference(&n.texture(), n.tex_coord(), transform.as_ref())?)
+            }
+            None => None,
+        },
+        normal_scale: m.normal_texture().map_or(1.0, |n| n.scale()),
+    })
 }
 
 struct Loader<'a> {
@@ -173,6 +304,17 @@ impl Loader<'_> {
                 }
                 None => None,
             };
+            let mut uv_sets: [Option<Vec<Vec2>>; 2] = [None, None];
+            for (set, uvs) in uv_sets.iter_mut().enumerate() {
+                if let Some(acc) = prim.get(&gltf::Semantic::TexCoords(set as u32)) {
+                    check_accessor(&acc, self.buffers).map_err(|m| self.err(format!("{what}: TEXCOORD_{set} {m}")))?;
+                    let read: Vec<Vec2> = reader
+                        .read_tex_coords(set as u32)
+                        .map(|it| it.into_f32().map(Vec2::from).collect())
+                        .unwrap_or_default();
+                    *uvs = (read.len() == positions.len()).then_some(read);
+                }
+            }
             let indices: Vec<u32> = match prim.indices() {
                 Some(acc) => {
                     check_accessor(&acc, self.buffers).map_err(|m| self.err(format!("{what}: indices {m}")))?;
@@ -208,7 +350,11 @@ impl Loader<'_> {
                 if p.iter().any(|v| !v.is_finite()) {
                     return Err(self.err(format!("{what}: a vertex position is not finite")));
                 }
-                self.scene.triangles.push(Triangle { p, n, material });
+                let uv = uv_sets.each_ref().map(|set| match set {
+                    Some(uvs) => [a, b, c].map(|i| uvs[i as usize]),
+                    None => [Vec2::ZERO; 3],
+                });
+                self.scene.triangles.push(Triangle { p, n, uv, material });
             }
             let m = &self.scene.materials[material as usize];
             if m.is_emissive() {

@@ -3,11 +3,13 @@
 
 mod camera;
 mod gltf_loader;
+mod texture;
 
 pub use camera::Camera;
 pub use gltf_loader::load_gltf;
+pub use texture::{Encoding, Texture, TextureRef, Wrap, srgb_to_linear, wrap_index};
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 /// A world-space triangle. Vertices are counter-clockwise seen from the front face.
 #[derive(Clone, Copy, Debug)]
@@ -15,6 +17,8 @@ pub struct Triangle {
     pub p: [Vec3; 3],
     /// Shading normals at the vertices (the geometric normal where the mesh has none).
     pub n: [Vec3; 3],
+    /// Texture coordinates TEXCOORD_0 and TEXCOORD_1 at the vertices (zero where absent).
+    pub uv: [[Vec2; 3]; 2],
     pub material: u32,
 }
 
@@ -40,6 +44,14 @@ pub struct Material {
     /// Emitted radiance: emissiveFactor × emissive_strength.
     pub emission: Vec3,
     pub double_sided: bool,
+    /// Textures (glTF 2.0 §3.9): base colour (sRGB, multiplies base_color), metallic-roughness
+    /// (linear; B multiplies metallic, G roughness), emissive (sRGB, multiplies emission) and
+    /// normal (linear tangent-space normal, xy scaled by `normal_scale`).
+    pub base_color_texture: Option<TextureRef>,
+    pub metallic_roughness_texture: Option<TextureRef>,
+    pub emissive_texture: Option<TextureRef>,
+    pub normal_texture: Option<TextureRef>,
+    pub normal_scale: f32,
 }
 
 impl Default for Material {
@@ -54,6 +66,11 @@ impl Default for Material {
             specular_color: Vec3::ONE,
             emission: Vec3::ZERO,
             double_sided: false,
+            base_color_texture: None,
+            metallic_roughness_texture: None,
+            emissive_texture: None,
+            normal_texture: None,
+            normal_scale: 1.0,
         }
     }
 }
@@ -61,6 +78,12 @@ impl Default for Material {
 impl Material {
     pub fn is_emissive(&self) -> bool {
         self.emission.max_element() > 0.0
+    }
+
+    pub fn texture_refs(&self) -> impl Iterator<Item = &TextureRef> {
+        [&self.base_color_texture, &self.metallic_roughness_texture, &self.emissive_texture, &self.normal_texture]
+            .into_iter()
+            .flatten()
     }
 }
 
@@ -109,6 +132,8 @@ pub struct Scene {
     pub materials: Vec<Material>,
     pub lights: Vec<Light>,
     pub cameras: Vec<Camera>,
+    /// Textures the materials use (`TextureRef::texture` indexes this).
+    pub textures: Vec<Texture>,
     /// Things in the file that veach does not render, said once to the user.
     pub warnings: Vec<String>,
 }
