@@ -92,7 +92,11 @@ fn light_sample_contribution(c: ShadingContext, index: u32, p_select: f32, use_m
         return vec3f(0.0);
     }
     let origin = offset_ray_origin(c.s.p, c.s.ng, ls.wi);
-    let t_max = select(ls.dist * (1.0 - 1.0e-4), RAY_INF, ls.dist >= RAY_INF);
+    // Both ends of the shadow ray are offset off their surfaces: far from the origin a
+    // fraction of the distance is less than the rounding of the light's position, and the
+    // light would occlude itself (found by tests/stress.rs on the Cornell box moved to 1e5).
+    let to_end = max(dot(ls.shadow_end - origin, ls.wi), 0.0);
+    let t_max = select(to_end * (1.0 - 1.0e-4), RAY_INF, ls.dist >= RAY_INF);
     *rays += 1u;
     if trace_occluded(origin, ls.wi, t_max) {
         return vec3f(0.0);

@@ -10,6 +10,9 @@ struct LightSample {
     value: vec3f,
     pdf: f32,
     is_delta: bool,
+    // Where the shadow ray ends: the sampled point pushed off the light's surface towards the
+    // receiver (area lights), the light's position (point, spot); unused for directional.
+    shadow_end: vec3f,
 }
 
 fn light_is_delta(kind: u32) -> bool {
@@ -93,7 +96,7 @@ fn sample_area_light(light: Light, x: vec3f, u: vec3f) -> LightSample {
     let dist_sq = dot(d, d);
     let dist = sqrt(dist_sq);
     let wi = d / dist;
-    var s = LightSample(wi, dist, vec3f(0.0), 0.0, false);
+    var s = LightSample(wi, dist, vec3f(0.0), 0.0, false, offset_ray_origin(y, n_l, -wi));
     if dist_sq <= 0.0 || !emits_towards(light.double_sided != 0u, n_l, wi) {
         return s;
     }
@@ -114,7 +117,7 @@ fn spot_falloff(light: Light, wi: vec3f) -> f32 {
 
 fn sample_delta_light(light: Light, x: vec3f) -> LightSample {
     if light.kind == LIGHT_DIRECTIONAL {
-        return LightSample(-light.direction, RAY_INF, light.intensity, 1.0, true);
+        return LightSample(-light.direction, RAY_INF, light.intensity, 1.0, true, vec3f(0.0));
     }
     let d = light.position - x;
     let dist_sq = dot(d, d);
@@ -124,7 +127,7 @@ fn sample_delta_light(light: Light, x: vec3f) -> LightSample {
     if light.kind == LIGHT_SPOT {
         value *= spot_falloff(light, wi);
     }
-    return LightSample(wi, dist, value, 1.0, true);
+    return LightSample(wi, dist, value, 1.0, true, light.position);
 }
 
 // Sample light `index` from x; the returned pdf excludes the selection probability.
@@ -136,7 +139,7 @@ fn sample_light(index: u32, x: vec3f, u: vec3f) -> LightSample {
     if HAS_DELTA_LIGHTS {
         return sample_delta_light(light, x);
     }
-    return LightSample(vec3f(0.0, 0.0, 1.0), 0.0, vec3f(0.0), 0.0, false);
+    return LightSample(vec3f(0.0, 0.0, 1.0), 0.0, vec3f(0.0), 0.0, false, x);
 }
 
 // Solid-angle pdf with which the light strategy (selection included) would have produced the

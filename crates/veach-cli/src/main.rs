@@ -33,10 +33,11 @@ enum Command {
         /// glTF scene (.gltf or .glb)
         scene: PathBuf,
     },
-    /// Write one of the scenes veach generates (the ones shipped in assets/) as .gltf.
+    /// Write one of the scenes veach generates as .gltf: the ones shipped in assets/, and the
+    /// stiff and extreme scenes of the stability suite (stress-*)
     Generate {
         /// Scene name
-        #[arg(value_parser = clap::builder::PossibleValuesParser::new(veach::assets::SHIPPED_SCENES))]
+        #[arg(value_parser = clap::builder::PossibleValuesParser::new(veach::assets::scene_names()))]
         name: String,
         /// Output file (.gltf)
         #[arg(short, long)]

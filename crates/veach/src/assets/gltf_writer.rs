@@ -106,6 +106,8 @@ pub struct GltfBuilder {
     samplers: Vec<Value>,
     textures: Vec<Value>,
     uses_texture_transform: bool,
+    /// A transform of the whole scene (a root node above every node).
+    root: Option<Mat4>,
 }
 
 fn wrap_code(w: Wrap) -> u32 {
@@ -295,6 +297,12 @@ impl GltfBuilder {
         }));
     }
 
+    /// The same scene under one more transform: meshes, cameras and lights alike.
+    pub fn transformed(mut self, m: Mat4) -> GltfBuilder {
+        self.root = Some(self.root.map_or(m, |r| m * r));
+        self
+    }
+
     pub fn to_json(&self) -> Value {
         let uri = format!(
             "data:application/octet-stream;base64,{}",
@@ -312,6 +320,12 @@ impl GltfBuilder {
             "bufferViews": self.buffer_views,
             "buffers": [{ "byteLength": self.buffer.len(), "uri": uri }],
         });
+        if let Some(m) = self.root {
+            let mut nodes = self.nodes.clone();
+            nodes.push(json!({ "name": "root", "children": (0..self.nodes.len()).collect::<Vec<_>>(), "matrix": m.to_cols_array() }));
+            root["scenes"] = json!([{ "nodes": [self.nodes.len()] }]);
+            root["nodes"] = json!(nodes);
+        }
         if !self.cameras.is_empty() {
             root["cameras"] = json!(self.cameras);
         }
@@ -376,6 +390,14 @@ impl MeshData {
         // uv (0, 0) at a, (1, 0) at b, (1, 1) at c.
         let uvs = vec![Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y];
         MeshData { positions: vec![a, b, c, d], normals: None, uvs: Some(uvs), indices }
+    }
+
+    /// The same triangles with the other face in front.
+    pub fn flipped(mut self) -> MeshData {
+        for t in self.indices.chunks_exact_mut(3) {
+            t.swap(1, 2);
+        }
+        self
     }
 
     pub fn append(&mut self, other: &MeshData) {

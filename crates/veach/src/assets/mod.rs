@@ -2,6 +2,7 @@
 //! small analytic scenes for tests.
 
 pub mod gltf_writer;
+pub mod stress;
 
 use crate::scene::Wrap;
 use glam::{Mat4, Vec2, Vec3};
@@ -10,13 +11,20 @@ use gltf_writer::{GltfBuilder, MaterialDesc, MaterialTextures, MeshData, Texture
 /// Names of the scenes `generate_scene` knows.
 pub const SHIPPED_SCENES: &[&str] = &["cornell-box", "veach-mis", "textured"];
 
+/// A shipped scene by name, or a stress scene as `stress-NAME` (see `stress::STRESS_SCENES`).
 pub fn generate_scene(name: &str) -> Option<GltfBuilder> {
     match name {
         "cornell-box" => Some(cornell_box()),
         "veach-mis" => Some(veach_mis()),
         "textured" => Some(textured()),
-        _ => None,
+        _ => stress::stress_scene(name.strip_prefix("stress-")?),
     }
+}
+
+/// Every name `generate_scene` knows.
+pub fn scene_names() -> Vec<&'static str> {
+    let stress = stress::STRESS_SCENES.iter().map(|s| &*format!("stress-{s}").leak());
+    SHIPPED_SCENES.iter().copied().chain(stress).collect()
 }
 
 /// A texture whose texel (x, y) is `f(x, y)` (RGBA8).
