@@ -20,6 +20,10 @@ bugs=(
   "shaders/integrator.wgsl|return f * ls.value * wi.z / p_select;|return f * ls.value * wi.z / p_select * f32(frame.light_samples);|analytic|delta_light|delta light skips the 1/n (Mitsuba 3 #1861)"
   "shaders/mis.wgsl|    let f = n_f * pdf_f;\n    let g = n_g * pdf_g;\n    if f <= 0.0 {\n        return 0.0;\n    }\n    return 1.0 / (1.0 + g / f);|    let f = pdf_f;\n    let g = pdf_g;\n    if f <= 0.0 {\n        return 0.0;\n    }\n    return 1.0 / (1.0 + g / f);|sampling|mis_weights|balance heuristic without the sample counts"
   "shaders/lights.wgsl|return light_power_cdf[index] - lo;|return light_power_cdf[index];|sampling|light_selection|power selection pdf is the CDF, not its step"
+  "shaders/textures.wgsl|let q = p - 0.5;|let q = p;|textures|lookups|bilinear texel centres off by half a texel"
+  "shaders/textures.wgsl|return vec2f(dot(r.row0, h), dot(r.row1, h));|return vec2f(dot(r.row1, h), dot(r.row0, h));|textures|floor_pixels|KHR_texture_transform rows swapped"
+  "shaders/textures.wgsl|return select(v, vec4f(srgb_to_linear(v.rgb), v.a), srgb);|return v;|textures|lookups|sRGB textures not decoded"
+  "shaders/traverse.wgsl|let int_scale = 32.0;|let int_scale = 256.0;|stress|far_from_the_origin|ray offset of 256 ULPs (2 units at 1e5)"
 )
 
 printf "%-52s %-10s %-16s %s\n" bug test filter result
