@@ -7,7 +7,7 @@ mod common;
 use common::*;
 use glam::{Mat4, Vec2, Vec3, Vec4};
 use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MaterialTextures, MeshData, Punctual, TextureUse};
-use veach::assets::texture_from;
+use veach::assets::{texture_from, turned_texture_lambert};
 use veach::gpu::layout::{FrameParams, TestParams};
 use veach::gpu::test_kernel::{TestKernel, routine};
 use veach::scene::{Encoding, Scene, Wrap, srgb_to_linear};
@@ -169,16 +169,7 @@ fn textured_floor_pixels_are_albedo_times_irradiance_over_pi() {
         [(40 + 60 * x) as u8, (40 + 60 * y) as u8, (200 - 30 * (x + y)) as u8, 255]
     });
     let checker = g.texture(&cells);
-    let floor = g.material(&MaterialDesc {
-        textures: MaterialTextures {
-            base_color: Some(TextureUse {
-                transform: Some((Vec2::new(0.1, 0.0), 0.3, Vec2::splat(3.0))),
-                ..TextureUse::new(checker)
-            }),
-            ..Default::default()
-        },
-        ..MaterialDesc::lambert("checker", Vec3::new(1.0, 0.9, 0.8))
-    });
+    let floor = g.material(&turned_texture_lambert("cells", Vec3::new(1.0, 0.9, 0.8), checker));
     let quad = MeshData::quad(
         Vec3::new(-1., 0., -1.),
         Vec3::new(1., 0., -1.),

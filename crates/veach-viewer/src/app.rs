@@ -408,43 +408,22 @@ impl ViewerApp {
 
         ui.separator();
         ui.heading("Files");
-        ui.horizontal(|ui| {
-            let label = ui.label("scene");
-            ui.add(egui::TextEdit::singleline(&mut self.scene_path_text).desired_width(170.0)).labelled_by(label.id);
-            if ui.button("open").clicked() {
-                let path = PathBuf::from(self.scene_path_text.trim());
-                let result = self.open_scene(&path);
-                self.report(result, format!("opened {}", path.display()));
-            }
-        });
-        ui.horizontal(|ui| {
-            let label = ui.label("image file");
-            ui.add(egui::TextEdit::singleline(&mut self.save_path_text).desired_width(170.0)).labelled_by(label.id);
-            if ui.button("save image").clicked() {
-                let path = PathBuf::from(self.save_path_text.trim());
-                let result = self.save_image(&path);
-                self.report(result, format!("saved {}", path.display()));
-            }
-        });
-        ui.horizontal(|ui| {
-            let label = ui.label("curves file");
-            ui.add(egui::TextEdit::singleline(&mut self.curves_path_text).desired_width(170.0)).labelled_by(label.id);
-            if ui.button("save curves").clicked() {
-                let path = PathBuf::from(self.curves_path_text.trim());
-                let result = self.curves.write_csv(&path);
-                self.report(result, format!("saved {}", path.display()));
-            }
-        });
-        ui.horizontal(|ui| {
-            let label = ui.label("reference");
-            ui.add(egui::TextEdit::singleline(&mut self.reference_path_text).desired_width(170.0))
-                .labelled_by(label.id);
-            if ui.button("load reference").clicked() {
-                let path = PathBuf::from(self.reference_path_text.trim());
-                let result = self.load_reference(&path);
-                self.report(result, format!("reference: {}", path.display()));
-            }
-        });
+        if let Some(path) = path_row(ui, "scene", &mut self.scene_path_text, "open") {
+            let result = self.open_scene(&path);
+            self.report(result, format!("opened {}", path.display()));
+        }
+        if let Some(path) = path_row(ui, "image file", &mut self.save_path_text, "save image") {
+            let result = self.save_image(&path);
+            self.report(result, format!("saved {}", path.display()));
+        }
+        if let Some(path) = path_row(ui, "curves file", &mut self.curves_path_text, "save curves") {
+            let result = self.curves.write_csv(&path);
+            self.report(result, format!("saved {}", path.display()));
+        }
+        if let Some(path) = path_row(ui, "reference", &mut self.reference_path_text, "load reference") {
+            let result = self.load_reference(&path);
+            self.report(result, format!("reference: {}", path.display()));
+        }
         let button = egui::Button::new(format!("render reference ({REFERENCE_SPP} spp)"));
         if ui.add_enabled(!self.rendering_reference, button).clicked() {
             self.rendering_reference = true;
@@ -619,6 +598,16 @@ impl ViewerApp {
         }
         ctx.request_repaint();
     }
+}
+
+/// A labelled path field with a button; the path when the button was clicked.
+fn path_row(ui: &mut egui::Ui, label: &str, text: &mut String, button: &str) -> Option<PathBuf> {
+    ui.horizontal(|ui| {
+        let label = ui.label(label);
+        ui.add(egui::TextEdit::singleline(text).desired_width(170.0)).labelled_by(label.id);
+        ui.button(button).clicked().then(|| PathBuf::from(text.trim()))
+    })
+    .inner
 }
 
 /// Sample counts per camera sample when a strategy is picked in the viewer: two samples of the

@@ -46,6 +46,21 @@ pub fn checker_texture() -> TextureDesc {
     })
 }
 
+/// A Lambertian material whose base colour is `texture` repeated 3×, turned by 0.3 rad and
+/// offset (KHR_texture_transform).
+pub fn turned_texture_lambert(name: &str, factor: Vec3, texture: usize) -> MaterialDesc {
+    MaterialDesc {
+        textures: MaterialTextures {
+            base_color: Some(TextureUse {
+                transform: Some((Vec2::new(0.1, 0.0), 0.3, Vec2::splat(3.0))),
+                ..TextureUse::new(texture)
+            }),
+            ..Default::default()
+        },
+        ..MaterialDesc::lambert(name, factor)
+    }
+}
+
 /// Every texture kind veach reads, each compiled in only because this scene uses it: a floor
 /// with a checkerboard base colour (sRGB, nearest, repeated and turned by KHR_texture_transform),
 /// a wall with a bumpy normal map, a panel whose roughness and metalness vary by stripes
@@ -74,16 +89,7 @@ pub fn textured() -> GltfBuilder {
         [255, (255.0 * (1.0 - 0.6 * t)) as u8, (255.0 * (0.3 + 0.7 * t)) as u8, 255]
     }));
 
-    let floor = g.material(&MaterialDesc {
-        textures: MaterialTextures {
-            base_color: Some(TextureUse {
-                transform: Some((Vec2::new(0.1, 0.0), 0.3, Vec2::splat(3.0))),
-                ..TextureUse::new(checker)
-            }),
-            ..Default::default()
-        },
-        ..MaterialDesc::lambert("checker floor", Vec3::ONE)
-    });
+    let floor = g.material(&turned_texture_lambert("checker floor", Vec3::ONE, checker));
     let wall = g.material(&MaterialDesc {
         textures: MaterialTextures {
             normal: Some((
