@@ -79,7 +79,7 @@ impl Accumulation {
         let params_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("frame params"),
             size: std::mem::size_of::<FrameParams>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
 

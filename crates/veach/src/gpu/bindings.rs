@@ -1,7 +1,7 @@
 //! The bind group layout of the kernels, written out binding by binding as in
 //! `shaders/layout.wgsl` (group 0) and `shaders/test_kernels.wgsl` (bindings 20–22).
 
-/// Binding of `frame` (uniform FrameParams).
+/// Binding of `frame` (FrameParams, read-only storage: see layout.wgsl for why not uniform).
 pub const FRAME: u32 = 0;
 /// Bindings 1..=7: the scene (bvh_nodes … light_power_cdf), read-only storage.
 pub const SCENE_FIRST: u32 = 1;
@@ -18,7 +18,7 @@ pub const TEST_PARAMS: u32 = 20;
 pub const TEST_INPUT: u32 = 21;
 pub const TEST_OUTPUT: u32 = 22;
 /// Storage buffers a render kernel binds (scene + outputs): a device must allow this many per stage.
-pub const STORAGE_BUFFERS_NEEDED: u32 = SCENE_COUNT + OUTPUT_COUNT + TEXTURES_COUNT;
+pub const STORAGE_BUFFERS_NEEDED: u32 = 1 + SCENE_COUNT + OUTPUT_COUNT + TEXTURES_COUNT;
 
 fn entry(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
@@ -36,7 +36,7 @@ fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
 /// Layout entries of the render kernel; `with_textures` adds the texture bindings and
 /// `with_test_io` the test kernels' bindings.
 pub fn layout_entries(with_textures: bool, with_test_io: bool) -> Vec<wgpu::BindGroupLayoutEntry> {
-    let mut entries = vec![entry(FRAME, wgpu::BufferBindingType::Uniform)];
+    let mut entries = vec![storage(FRAME, true)];
     entries.extend((SCENE_FIRST..SCENE_FIRST + SCENE_COUNT).map(|b| storage(b, true)));
     entries.extend((OUTPUT_FIRST..OUTPUT_FIRST + OUTPUT_COUNT).map(|b| storage(b, false)));
     if with_textures {

@@ -60,12 +60,8 @@ impl<'a> TestKernel<'a> {
     ) -> Result<Vec<[f32; 4]>> {
         let device = &self.renderer.gpu.device;
         let queue = &self.renderer.gpu.queue;
-        let uniform = |label: &str, bytes: &[u8]| {
-            device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                label: Some(label),
-                contents: bytes,
-                usage: wgpu::BufferUsages::UNIFORM,
-            })
+        let uniform = |label: &str, bytes: &[u8], usage: wgpu::BufferUsages| {
+            device.create_buffer_init(&wgpu::util::BufferInitDescriptor { label: Some(label), contents: bytes, usage })
         };
         let storage = |label: &str, bytes: u64, usage: wgpu::BufferUsages| {
             device.create_buffer(&wgpu::BufferDescriptor {
@@ -75,8 +71,8 @@ impl<'a> TestKernel<'a> {
                 mapped_at_creation: false,
             })
         };
-        let frame_buffer = uniform("test frame", bytemuck::bytes_of(frame));
-        let params_buffer = uniform("test params", bytemuck::bytes_of(params));
+        let frame_buffer = uniform("test frame", bytemuck::bytes_of(frame), wgpu::BufferUsages::STORAGE);
+        let params_buffer = uniform("test params", bytemuck::bytes_of(params), wgpu::BufferUsages::UNIFORM);
         let input_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
             label: Some("test input"),
             contents: if input.is_empty() { &[0u8; 16] } else { bytemuck::cast_slice(input) },
