@@ -78,12 +78,23 @@ fn conductor_fresnel(p: BsdfParams, v_dot_h: f32) -> vec3f {
     return p.base_color + (vec3f(1.0) - p.base_color) * pow5(1.0 - abs(v_dot_h));
 }
 
+// f(wo, wi) split into its diffuse lobe and its glossy (GGX) lobe, without the cosine.
+struct BsdfLobes {
+    diffuse: vec3f,
+    glossy: vec3f,
+}
+
 // f(wo, wi), without the cosine.
 fn bsdf_eval(p: BsdfParams, wo: vec3f, wi: vec3f) -> vec3f {
+    let l = bsdf_eval_lobes(p, wo, wi);
+    return l.diffuse + l.glossy;
+}
+
+fn bsdf_eval_lobes(p: BsdfParams, wo: vec3f, wi: vec3f) -> BsdfLobes {
     let n_dot_l = wi.z;
     let n_dot_v = wo.z;
     if n_dot_l <= 0.0 || n_dot_v <= 0.0 {
-        return vec3f(0.0);
+        return BsdfLobes(vec3f(0.0), vec3f(0.0));
     }
     let h = normalize(wo + wi);
     let v_dot_h = dot(wo, h);
@@ -95,10 +106,16 @@ fn bsdf_eval(p: BsdfParams, wo: vec3f, wi: vec3f) -> vec3f {
     }
     let diffuse_brdf = p.base_color * INV_PI;
     // fresnel_mix (Appendix B.3.4, weighted as in KHR_materials_specular).
+    // material = mix(dielectric, metal, metallic), the diffuse lobe only in the dielectric.
     let fr = dielectric_fresnel(p, v_dot_h);
-    let dielectric = (1.0 - p.specular * max3(fr)) * diffuse_brdf + p.specular * fr * specular_brdf;
-    let metal = conductor_fresnel(p, v_dot_h) * specular_brdf;
-    return mix(dielectric, metal, p.metallic);
+    let diffuse = (1.0 - p.metallic) * (1.0 - p.specular * max3(fr)) * diffuse_brdf;
+    let glossy = ((1.0 - p.metallic) * p.specular * fr + p.metallic * conductor_fresnel(p, v_dot_h)) * specular_brdf;
+    return BsdfLobes(diffuse, glossy);
+}
+
+// The BSDF has a glossy or mirror lobe (metallic > 0 or a specular layer).
+fn has_glossy_lobe(p: BsdfParams) -> bool {
+    return HAS_GLOSSY && (p.metallic > 0.0 || p.specular > 0.0);
 }
 
 // Probability of sampling the specular lobe, from the Fresnel-weighted albedo of each lobe at

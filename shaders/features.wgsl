@@ -3,7 +3,7 @@
 // defaults make the generic kernel, which renders any scene and reads the strategy at run time.
 // A branch on a false constant is dead code that the driver's compiler removes.
 
-// 0..3: the strategy is fixed (STRATEGY_*); 255: read frame.strategy.
+// 0..4: the strategy is fixed (STRATEGY_*); 255: read frame.strategy.
 override STRATEGY: u32 = 255u;
 // The scene has emissive triangles (area lights, emission seen directly).
 override HAS_AREA_LIGHTS: bool = true;

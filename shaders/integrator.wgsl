@@ -6,6 +6,9 @@
 //   brdf:    (1/m) Σ f L cos / p_brdf                          (glTF BRDF sampling)
 //   light:   (1/n) Σ f L_e cos / (P(light) p_ω)                (area sampling, r²/(|cos θ_l| A))
 //   mis:     (1/n) Σ w_l f L_e cos / p_l + (1/m) Σ w_b f L_e cos / p_b   (Veach & Guibas 1995, eq. 8)
+//   mis-lobes: f = f_diffuse + f_glossy; the diffuse lobe by light sampling alone (n + m light
+//            samples where there is no glossy lobe), the glossy lobe by MIS of n light samples
+//            and m samples of that lobe (Veach & Guibas 1995, eq. 8, counts fixed per point)
 // Delta lights are reached only through light sampling and always get MIS weight 1.
 
 struct SurfaceHit {
@@ -79,38 +82,79 @@ struct ShadingContext {
     bsdf: BsdfParams,
 }
 
-// One sample of light `index` chosen with probability p_select.
-fn light_sample_contribution(c: ShadingContext, index: u32, p_select: f32, use_mis: bool, rng: ptr<function, u32>, rays: ptr<function, u32>) -> vec3f {
+// A light sample seen from the surface, before any weighting: g = f L_e |cos θ_i| (zero when
+// occluded or facing away), and the densities with which the light strategy (selection
+// included) and BRDF sampling produce its direction.
+struct LightSampleEval {
+    g: vec3f,
+    p_light: f32,
+    p_brdf: f32,
+    is_delta: bool,
+    // The glossy lobe's part of g, and the density of sampling that lobe alone (glossy_lobe_sample).
+    g_glossy: vec3f,
+    p_glossy: f32,
+}
+
+// One sample of light `index`, chosen with probability p_select, with its shadow ray traced.
+fn trace_light_sample(c: ShadingContext, index: u32, p_select: f32, rng: ptr<function, u32>, rays: ptr<function, u32>) -> LightSampleEval {
+    var r = LightSampleEval(vec3f(0.0), 0.0, 0.0, false, vec3f(0.0), 0.0);
     let u = vec3f(rng_next(rng), rng_next2(rng));
     let ls = sample_light(index, c.s.p, u);
     if ls.pdf <= 0.0 || dot(ls.wi, c.s.ng) <= 0.0 {
-        return vec3f(0.0);
+        return r;
     }
     let wi = frame_to_local(c.frame, ls.wi);
-    let f = bsdf_eval(c.bsdf, c.wo, wi);
+    let lobes = bsdf_eval_lobes(c.bsdf, c.wo, wi);
+    let f = lobes.diffuse + lobes.glossy;
     if wi.z <= 0.0 || all(f == vec3f(0.0)) || all(ls.value == vec3f(0.0)) {
-        return vec3f(0.0);
+        return r;
     }
+    // Both ends of the shadow ray are offset off their surfaces (far from the origin a fraction
+    // of the distance is less than the rounding of the light's position: tests/stress.rs, the
+    // Cornell box moved to 1e5), and the ray is aimed from the one to the other, as pbrt-v4's
+    // SpawnRayTo does. Along the sampled direction from the offset origin, the ray ran parallel
+    // to the true one, displaced by the origin's offset, and crossed a light seen at a slant
+    // before its end: a light tilted 1° over the floor lit the floor 10× too dark.
     let origin = offset_ray_origin(c.s.p, c.s.ng, ls.wi);
-    // Both ends of the shadow ray are offset off their surfaces: far from the origin a
-    // fraction of the distance is less than the rounding of the light's position, and the
-    // light would occlude itself (found by tests/stress.rs on the Cornell box moved to 1e5).
-    let to_end = max(dot(ls.shadow_end - origin, ls.wi), 0.0);
-    let t_max = select(to_end * (1.0 - 1.0e-4), RAY_INF, ls.dist >= RAY_INF);
+    var shadow_dir = ls.wi;
+    var t_max = RAY_INF;
+    if ls.dist < RAY_INF {
+        let to_end = ls.shadow_end - origin;
+        let len = length(to_end);
+        if len <= 0.0 {
+            return r;
+        }
+        shadow_dir = to_end / len;
+        t_max = len * (1.0 - 1.0e-4);
+    }
     *rays += 1u;
-    if trace_occluded(origin, ls.wi, t_max) {
+    if trace_occluded(origin, shadow_dir, t_max) {
+        return r;
+    }
+    r.g = f * ls.value * wi.z;
+    r.is_delta = HAS_DELTA_LIGHTS && ls.is_delta;
+    // A delta light's "pdf" is the probability of choosing it; no direction density.
+    r.p_light = select(p_select * ls.pdf, p_select, r.is_delta);
+    r.p_brdf = select(bsdf_pdf(c.bsdf, c.wo, wi), 0.0, r.is_delta);
+    r.g_glossy = lobes.glossy * ls.value * wi.z;
+    if HAS_GLOSSY && !c.bsdf.delta && !r.is_delta {
+        r.p_glossy = ggx_vndf_pdf(c.wo, wi, c.bsdf.alpha);
+    }
+    return r;
+}
+
+// One light sample, weighted: g / p_light, times the MIS weight against BRDF sampling.
+fn light_sample_contribution(c: ShadingContext, index: u32, p_select: f32, use_mis: bool, rng: ptr<function, u32>, rays: ptr<function, u32>) -> vec3f {
+    let s = trace_light_sample(c, index, p_select, rng, rays);
+    if all(s.g == vec3f(0.0)) {
         return vec3f(0.0);
     }
-    if HAS_DELTA_LIGHTS && ls.is_delta {
-        // A delta light has no density to weigh against: MIS weight 1.
-        return f * ls.value * wi.z / p_select;
-    }
-    let p_light = p_select * ls.pdf;
+    // A delta light has no density to weigh against: MIS weight 1.
     var w = 1.0;
-    if use_mis {
-        w = mis_weight(f32(frame.light_samples), p_light, f32(frame.brdf_samples), bsdf_pdf(c.bsdf, c.wo, wi));
+    if use_mis && !s.is_delta {
+        w = mis_weight(f32(frame.light_samples), s.p_light, f32(frame.brdf_samples), s.p_brdf);
     }
-    return w * f * ls.value * wi.z / p_light;
+    return w * s.g / s.p_light;
 }
 
 // Light sampling: n samples of each light (SELECT_EACH) or n samples of one chosen light.
@@ -134,35 +178,58 @@ fn estimate_light_sampling(c: ShadingContext, use_mis: bool, rng: ptr<function, 
     return sum / f32(frame.light_samples);
 }
 
-// Radiance arriving along a direction sampled at the surface: L_e of the first hit.
-// With MIS, weighted against the light strategy's pdf for the same direction.
-fn direction_sample_contribution(c: ShadingContext, wi_world: vec3f, pdf: f32, n_samples: f32, use_mis: bool, rays: ptr<function, u32>) -> vec3f {
-    if pdf <= 0.0 || dot(wi_world, c.s.ng) <= 0.0 {
-        return vec3f(0.0);
+// A direction sampled at the surface, before any weighting: g = f L_e |cos θ_i| with L_e
+// emitted by the first hit, and the density with which the light strategy would have
+// produced the same direction (zero unless the hit is on a light).
+struct DirectionEval {
+    g: vec3f,
+    p_light: f32,
+    // The glossy lobe's part of g.
+    g_glossy: vec3f,
+}
+
+fn trace_direction(c: ShadingContext, wi_world: vec3f, rays: ptr<function, u32>) -> DirectionEval {
+    var r = DirectionEval(vec3f(0.0), 0.0, vec3f(0.0));
+    if dot(wi_world, c.s.ng) <= 0.0 {
+        return r;
     }
     let wi = frame_to_local(c.frame, wi_world);
-    let f = bsdf_eval(c.bsdf, c.wo, wi);
+    let lobes = bsdf_eval_lobes(c.bsdf, c.wo, wi);
+    let f = lobes.diffuse + lobes.glossy;
     if all(f == vec3f(0.0)) {
-        return vec3f(0.0);
+        return r;
     }
     let origin = offset_ray_origin(c.s.p, c.s.ng, wi_world);
     *rays += 1u;
     let hit = trace_closest(origin, wi_world, RAY_INF);
     if !hit.found {
-        return vec3f(0.0);
+        return r;
     }
     let e = surface_at(hit, wi_world);
     let le = emitted_radiance(e);
     if all(le == vec3f(0.0)) {
+        return r;
+    }
+    r.g = f * le * wi.z;
+    r.g_glossy = lobes.glossy * le * wi.z;
+    if HAS_AREA_LIGHTS && e.light != NO_LIGHT && frame.light_count > 0u {
+        r.p_light = area_light_pdf(e.light, c.s.p, tri_verts[hit.tri], e.p);
+    }
+    return r;
+}
+
+// Radiance arriving along a direction sampled with density `pdf`, over that density; with
+// MIS, weighted against the light strategy's pdf for the same direction.
+fn direction_sample_contribution(c: ShadingContext, wi_world: vec3f, pdf: f32, n_samples: f32, use_mis: bool, rays: ptr<function, u32>) -> vec3f {
+    if pdf <= 0.0 {
         return vec3f(0.0);
     }
+    let d = trace_direction(c, wi_world, rays);
     var w = 1.0;
-    if HAS_AREA_LIGHTS && use_mis && e.light != NO_LIGHT && frame.light_samples > 0u {
-        let v = tri_verts[hit.tri];
-        let p_light = area_light_pdf(e.light, c.s.p, e.p, triangle_normal(v));
-        w = mis_weight(n_samples, pdf, f32(frame.light_samples), p_light);
+    if use_mis && d.p_light > 0.0 && frame.light_samples > 0u {
+        w = mis_weight(n_samples, pdf, f32(frame.light_samples), d.p_light);
     }
-    return w * f * le * wi.z / pdf;
+    return w * d.g / pdf;
 }
 
 // A sample of a delta (mirror) lobe: no other strategy can produce its direction, so its MIS
@@ -212,12 +279,91 @@ fn estimate_uniform_sampling(c: ShadingContext, rng: ptr<function, u32>, rays: p
     return sum / n;
 }
 
+const DEFENSIVE_SHARE: f32 = 0.1;
+
 // The parts of one camera sample's estimate: emission seen directly, light-sample and
 // direction-sample (BRDF or uniform) contributions, MIS-weighted where the strategy is MIS.
 struct Estimate {
     emitted: vec3f,
     light: vec3f,
     brdf: vec3f,
+}
+
+// MIS per lobe (mis-lobes): the diffuse lobe is estimated by light sampling alone, the glossy
+// lobe by MIS between light sampling and sampling that lobe itself. Veach's multi-sample model
+// (Veach & Guibas 1995, eq. 8; thesis §9.2) lets the counts differ from point to point as long as
+// they are fixed before sampling: at a point without a glossy lobe the m BRDF samples become
+// light samples (a diffuse lobe's BRDF samples rarely find a small light, and the balance
+// heuristic would give them little weight); at a point with one, n light samples serve both lobes
+// and m samples go to the glossy lobe, weighted against light sampling with the counts.
+fn estimate_lobe_mis(c: ShadingContext, rng: ptr<function, u32>, rays: ptr<function, u32>) -> Estimate {
+    let glossy = has_glossy_lobe(c.bsdf);
+    let n = select(frame.light_samples + frame.brdf_samples, frame.light_samples, glossy);
+    // A mirror lobe's one direction needs one sample.
+    let m = select(0u, select(frame.brdf_samples, min(frame.brdf_samples, 1u), c.bsdf.delta), glossy);
+    // The host refuses light_samples = 0 for this strategy (the diffuse lobe needs them).
+    if n == 0u || frame.light_count == 0u {
+        return Estimate(vec3f(0.0), vec3f(0.0), vec3f(0.0));
+    }
+    var light = vec3f(0.0);
+    if frame.light_selection == SELECT_EACH {
+        for (var li = 0u; li < frame.light_count; li++) {
+            for (var k = 0u; k < n; k++) {
+                light += lobe_light_sample(c, li, 1.0, n, m, rng, rays);
+            }
+        }
+    } else {
+        for (var k = 0u; k < n; k++) {
+            let li = select_light(rng_next(rng));
+            light += lobe_light_sample(c, li, light_selection_pdf(li), n, m, rng, rays);
+        }
+    }
+    var brdf = vec3f(0.0);
+    for (var k = 0u; k < m; k++) {
+        brdf += glossy_lobe_sample(c, n, m, rng, rays);
+    }
+    return Estimate(vec3f(0.0), light / f32(n), select(vec3f(0.0), brdf / f32(m), m > 0u));
+}
+
+// A light sample of mis-lobes: the diffuse lobe's part with weight 1 (no other technique
+// samples it), the glossy lobe's weighted against glossy-lobe sampling; a delta light weight 1.
+fn lobe_light_sample(c: ShadingContext, index: u32, p_select: f32, n: u32, m: u32, rng: ptr<function, u32>, rays: ptr<function, u32>) -> vec3f {
+    let s = trace_light_sample(c, index, p_select, rng, rays);
+    if all(s.g == vec3f(0.0)) {
+        return vec3f(0.0);
+    }
+    if s.is_delta || m == 0u {
+        return s.g / s.p_light;
+    }
+    let w = mis_weight(f32(n), s.p_light, f32(m), s.p_glossy);
+    return (s.g - s.g_glossy + w * s.g_glossy) / s.p_light;
+}
+
+// A sample of the glossy lobe alone (GGX visible normals, or the mirror direction), weighted
+// against light sampling. The mirror's direction no light sample reaches: weight 1, and its
+// value is the lobe's reflectance times the radiance found.
+fn glossy_lobe_sample(c: ShadingContext, n: u32, m: u32, rng: ptr<function, u32>, rays: ptr<function, u32>) -> vec3f {
+    let u = rng_next2(rng);
+    if HAS_MIRRORS && c.bsdf.delta {
+        let wi_world = frame_to_world(c.frame, vec3f(-c.wo.x, -c.wo.y, c.wo.z));
+        if dot(wi_world, c.s.ng) <= 0.0 {
+            return vec3f(0.0);
+        }
+        *rays += 1u;
+        let hit = trace_closest(offset_ray_origin(c.s.p, c.s.ng, wi_world), wi_world, RAY_INF);
+        if !hit.found {
+            return vec3f(0.0);
+        }
+        return mirror_reflectance(c.bsdf, c.wo.z) * emitted_radiance(surface_at(hit, wi_world));
+    }
+    let wi = reflect(-c.wo, sample_ggx_vndf(c.wo, c.bsdf.alpha, u));
+    let pdf = ggx_vndf_pdf(c.wo, wi, c.bsdf.alpha);
+    if wi.z <= 0.0 || pdf <= 0.0 {
+        return vec3f(0.0);
+    }
+    let d = trace_direction(c, frame_to_world(c.frame, wi), rays);
+    let w = select(1.0, mis_weight(f32(m), pdf, f32(n), d.p_light), d.p_light > 0.0);
+    return w * d.g_glossy / pdf;
 }
 
 fn estimate_radiance(ray: Ray, rng: ptr<function, u32>, rays: ptr<function, u32>) -> Estimate {
@@ -242,6 +388,11 @@ fn estimate_radiance(ray: Ray, rng: ptr<function, u32>, rays: ptr<function, u32>
         }
         case STRATEGY_LIGHT: {
             e.light = estimate_light_sampling(c, false, rng, rays);
+        }
+        case STRATEGY_MIS_LOBES: {
+            let parts = estimate_lobe_mis(c, rng, rays);
+            e.light = parts.light;
+            e.brdf = parts.brdf;
         }
         default: {
             e.light = estimate_light_sampling(c, true, rng, rays);

@@ -8,6 +8,7 @@ const STRATEGY_UNIFORM: u32 = 0u;
 const STRATEGY_BRDF: u32 = 1u;
 const STRATEGY_LIGHT: u32 = 2u;
 const STRATEGY_MIS: u32 = 3u;
+const STRATEGY_MIS_LOBES: u32 = 4u;
 
 const HEURISTIC_BALANCE: u32 = 0u;
 const HEURISTIC_POWER: u32 = 1u;
@@ -15,6 +16,9 @@ const HEURISTIC_POWER: u32 = 1u;
 const SELECT_EACH: u32 = 0u;
 const SELECT_UNIFORM: u32 = 1u;
 const SELECT_POWER: u32 = 2u;
+
+const LIGHT_SAMPLING_AREA: u32 = 0u;
+const LIGHT_SAMPLING_SOLID_ANGLE: u32 = 1u;
 
 const LIGHT_AREA: u32 = 0u;
 const LIGHT_POINT: u32 = 1u;
@@ -58,7 +62,8 @@ struct FrameParams {
     write_aovs: u32,
     // 1: leave out emission seen directly by camera rays (direct lighting only).
     hide_emitters: u32,
-    _pad1: u32,
+    // LIGHT_SAMPLING_*: how a point on an emitter triangle is sampled.
+    light_sampling: u32,
 }
 
 // BVH2 node, 32 bytes. Inner node (count == 0): children at nodes[first] and nodes[first + 1].

@@ -85,23 +85,64 @@ fn area_to_solid_angle_pdf(dist_sq: f32, cos_light: f32, area: f32) -> f32 {
     return select(0.0, dist_sq / denom, denom > 0.0);
 }
 
-// Area light: a point uniform on the light's surface (triangle by area, then uniform in it).
+// With LIGHT_SAMPLING_SOLID_ANGLE, an emitter triangle whose solid angle from the receiver lies in
+// this range is sampled by solid angle; outside it by area. Above, the triangle wraps around the
+// receiver (pbrt-v4's MaxSphericalSampleArea). Below: pbrt-v4 goes down to 3e-4 sr, but in f32
+// the thin triangles of a light seen at grazing angles sample measurably off-uniform there (at
+// 7e-4 sr the mean direction moved by 5% of the triangle's width; found with a chi-square test
+// in tests/sampling.rs and a float32 replay), and a triangle that small is nearly uniform in
+// solid angle under area sampling anyway.
+const MIN_SPHERICAL_SAMPLE_AREA: f32 = 1.0e-2;
+const MAX_SPHERICAL_SAMPLE_AREA: f32 = 6.22;
+
+// Solid angle of the emitter triangle from x where it is sampled by solid angle, else 0.
+fn spherical_sampling_solid_angle(x: vec3f, p0: vec3f, p1: vec3f, p2: vec3f) -> f32 {
+    if frame.light_sampling != LIGHT_SAMPLING_SOLID_ANGLE {
+        return 0.0;
+    }
+    let omega = spherical_triangle_solid_angle(x, p0, p1, p2);
+    return select(0.0, omega, omega >= MIN_SPHERICAL_SAMPLE_AREA && omega <= MAX_SPHERICAL_SAMPLE_AREA);
+}
+
+// Area light: an emitter triangle chosen by area, then a point uniform on it (pdf 1/A in area,
+// converted to solid angle), or, with LIGHT_SAMPLING_SOLID_ANGLE, a direction uniform in the
+// triangle's solid angle (pdf P(triangle) / Ω, Arvo 1995), which stays bounded where r² → 0
+// at a contact edge and where cos θ_l → 0 at grazing angles.
 fn sample_area_light(light: Light, x: vec3f, u: vec3f) -> LightSample {
     let ti = select_emitter_triangle(light, u.x);
     let tri = emitter_tris[ti];
-    let b = sample_uniform_triangle(u.yz);
-    let y = tri.p0 + b.x * tri.e1 + b.y * tri.e2;
-    let n_l = normalize(cross(tri.e1, tri.e2));
+    let p1 = tri.p0 + tri.e1;
+    let p2 = tri.p0 + tri.e2;
+    let n = cross(tri.e1, tri.e2);
+    let n_l = normalize(n);
+    var b = sample_uniform_triangle(u.yz);
+    var y = tri.p0 + b.x * tri.e1 + b.y * tri.e2;
+    let omega = spherical_sampling_solid_angle(x, tri.p0, p1, p2);
+    var failed = false;
+    if omega > 0.0 {
+        let w = sample_spherical_triangle(x, tri.p0, p1, p2, u.yz);
+        // The point where the direction meets the triangle's plane, and its barycentrics.
+        let t = dot(tri.p0 - x, n) / dot(w, n);
+        failed = all(w == vec3f(0.0)) || !(t > 0.0);
+        y = x + t * w;
+        let d = y - tri.p0;
+        let n_sq = dot(n, n);
+        b = clamp(vec2f(dot(cross(d, tri.e2), n), dot(cross(tri.e1, d), n)) / n_sq, vec2f(0.0), vec2f(1.0));
+    }
     let d = y - x;
     let dist_sq = dot(d, d);
     let dist = sqrt(dist_sq);
     let wi = d / dist;
     var s = LightSample(wi, dist, vec3f(0.0), 0.0, false, offset_ray_origin(y, n_l, -wi));
-    if dist_sq <= 0.0 || !emits_towards(light.double_sided != 0u, n_l, wi) {
+    if failed || dist_sq <= 0.0 || !emits_towards(light.double_sided != 0u, n_l, wi) {
         return s;
     }
     s.value = light.intensity * emitter_emission_texture(ti, b.x, b.y);
-    s.pdf = area_to_solid_angle_pdf(dist_sq, dot(n_l, wi), light.area);
+    if omega > 0.0 {
+        s.pdf = (0.5 * length(n) / light.area) / omega;
+    } else {
+        s.pdf = area_to_solid_angle_pdf(dist_sq, dot(n_l, wi), light.area);
+    }
     return s;
 }
 
@@ -143,11 +184,19 @@ fn sample_light(index: u32, x: vec3f, u: vec3f) -> LightSample {
 }
 
 // Solid-angle pdf with which the light strategy (selection included) would have produced the
-// direction from x to point y on emitter triangle `tri` of light `index`.
-fn area_light_pdf(index: u32, x: vec3f, y: vec3f, n_l: vec3f) -> f32 {
-    let light = lights[index];
+// direction from x to point y on emitter triangle v of light `index`.
+fn area_light_pdf(index: u32, x: vec3f, v: TriangleVerts, y: vec3f) -> f32 {
+    return light_selection_pdf(index) * area_light_direction_pdf(index, x, v, y);
+}
+
+// The same density once light `index` is chosen (sample_area_light's pdf).
+fn area_light_direction_pdf(index: u32, x: vec3f, v: TriangleVerts, y: vec3f) -> f32 {
+    let n = cross(v.p1 - v.p0, v.p2 - v.p0);
+    let omega = spherical_sampling_solid_angle(x, v.p0, v.p1, v.p2);
+    if omega > 0.0 {
+        return (0.5 * length(n) / lights[index].area) / omega;
+    }
     let d = y - x;
-    let dist_sq = dot(d, d);
-    let cos_l = dot(n_l, normalize(d));
-    return light_selection_pdf(index) * area_to_solid_angle_pdf(dist_sq, cos_l, light.area);
+    let cos_l = dot(normalize(n), normalize(d));
+    return area_to_solid_angle_pdf(dot(d, d), cos_l, lights[index].area);
 }

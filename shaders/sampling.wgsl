@@ -76,3 +76,85 @@ fn sample_uniform_triangle(u: vec2f) -> vec2f {
     let su = sqrt(u.x);
     return vec2f(u.y * su, 1.0 - su);
 }
+
+// Solid angle of triangle (p0, p1, p2) seen from x. Van Oosterom & Strackee, "The Solid Angle
+// of a Plane Triangle", IEEE Trans. Biomed. Eng. 30(2), 1983: for unit a, b, c towards the
+// vertices, tan(Ω/2) = |a·(b×c)| / (1 + a·b + b·c + c·a). Accurate for small triangles,
+// where the angle-sum formula Ω = α + β + γ − π cancels.
+fn spherical_triangle_solid_angle(x: vec3f, p0: vec3f, p1: vec3f, p2: vec3f) -> f32 {
+    let a = normalize(p0 - x);
+    let b = normalize(p1 - x);
+    let c = normalize(p2 - x);
+    let omega = abs(2.0 * atan2(dot(a, cross(b, c)), 1.0 + dot(a, b) + dot(b, c) + dot(c, a)));
+    return select(0.0, omega, omega == omega);
+}
+
+// Component of v orthogonal to unit w, normalised; zero where v is parallel to w.
+fn orthonormal_to(v: vec3f, w: vec3f) -> vec3f {
+    let o = v - dot(v, w) * w;
+    let len_sq = dot(o, o);
+    return select(vec3f(0.0), o * inverseSqrt(len_sq), len_sq > 0.0);
+}
+
+// sin and cos of 0 ≤ x ≤ 2π to f32 precision, also near 0: WGSL bounds sin and cos only by an
+// absolute error of 2^-11, which is the whole of a small spherical triangle's area. x is halved
+// below 1/4, where a Taylor series is exact to f32, and doubled back with sin 2y = 2 sin y cos y,
+// cos 2y = 1 − 2 sin² y.
+fn sin_cos_accurate(x: f32) -> vec2f {
+    var y = x;
+    var halvings = 0u;
+    while y >= 0.25 && halvings < 8u {
+        y *= 0.5;
+        halvings++;
+    }
+    let y2 = y * y;
+    var sc = vec2f(y * (1.0 - y2 / 6.0 * (1.0 - y2 / 20.0 * (1.0 - y2 / 42.0))), 1.0 - y2 / 2.0 * (1.0 - y2 / 12.0 * (1.0 - y2 / 30.0)));
+    for (var k = 0u; k < halvings; k++) {
+        sc = vec2f(2.0 * sc.x * sc.y, 1.0 - 2.0 * sc.x * sc.x);
+    }
+    return sc;
+}
+
+// A direction uniform in the solid angle of triangle (p0, p1, p2) seen from x: pdf = 1 / Ω.
+// Arvo, "Stratified Sampling of Spherical Triangles", SIGGRAPH 1995, in the form of pbrt-v4
+// §6.5.4 (SampleSphericalTriangle): u.x picks the sub-triangle of area A' = u.x · A, which
+// fixes the point C' on the arc from A to C; u.y picks the direction's height along the arc
+// from B to C'. pbrt's angles and their sines and cosines come from trigonometric functions;
+// here cos α and sin α come from dot and cross products, A from spherical_triangle_solid_angle,
+// and sin, cos of π + A' from sin_cos_accurate, so that triangles of 1e-3 sr sample as exactly
+// as large ones. Returns the zero vector for a degenerate triangle.
+fn sample_spherical_triangle(x: vec3f, p0: vec3f, p1: vec3f, p2: vec3f, u: vec2f) -> vec3f {
+    let a = normalize(p0 - x);
+    let b = normalize(p1 - x);
+    let c = normalize(p2 - x);
+    var n_ab = cross(a, b);
+    var n_ca = cross(c, a);
+    if dot(n_ab, n_ab) == 0.0 || dot(n_ca, n_ca) == 0.0 {
+        return vec3f(0.0);
+    }
+    n_ab = normalize(n_ab);
+    n_ca = normalize(n_ca);
+    // The spherical triangle's angle α at vertex a, between the planes of arcs ab and ac.
+    let cos_alpha = clamp(dot(n_ab, -n_ca), -1.0, 1.0);
+    let sin_alpha = length(cross(n_ab, -n_ca));
+    let area = spherical_triangle_solid_angle(x, p0, p1, p2);
+    if area <= 0.0 || sin_alpha <= 0.0 {
+        return vec3f(0.0);
+    }
+    // sin and cos of A' + π = u.x · A + π.
+    let sc = sin_cos_accurate(u.x * area);
+    let sin_ap = -sc.x;
+    let cos_ap = -sc.y;
+    let sin_phi = sin_ap * cos_alpha - cos_ap * sin_alpha;
+    let cos_phi = cos_ap * cos_alpha + sin_ap * sin_alpha;
+    let k1 = cos_phi + cos_alpha;
+    let k2 = sin_phi - sin_alpha * dot(a, b);
+    let denom = (k2 * sin_phi + k1 * cos_phi) * sin_alpha;
+    var cos_bp = select(1.0, (k2 + (k2 * cos_phi - k1 * sin_phi) * cos_alpha) / denom, denom != 0.0);
+    cos_bp = clamp(cos_bp, -1.0, 1.0);
+    let sin_bp = sqrt(max(0.0, 1.0 - cos_bp * cos_bp));
+    let cp = cos_bp * a + sin_bp * orthonormal_to(c, a);
+    let cos_theta = 1.0 - u.y * (1.0 - dot(cp, b));
+    let sin_theta = sqrt(max(0.0, 1.0 - cos_theta * cos_theta));
+    return normalize(cos_theta * b + sin_theta * orthonormal_to(cp, b));
+}

@@ -45,7 +45,7 @@ fn traced_light_pdf(x: vec3f, wi: vec3f) -> f32 {
         return 0.0;
     }
     let y = x + hit.t * wi;
-    return area_light_pdf(test.light_index, x, y, n_l) / light_selection_pdf(test.light_index);
+    return area_light_pdf(test.light_index, x, v, y) / light_selection_pdf(test.light_index);
 }
 
 fn write_sample(i: u32, wi: vec3f, pdf: f32, pdf_eval: f32, weight: f32) {

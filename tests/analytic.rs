@@ -197,6 +197,8 @@ fn area_and_point_light_on_a_lambertian_plane_match_the_closed_form() {
         ("mis-balance", settings(Strategy::Mis, 32, 8, 8, Each, balance), &both),
         ("mis-power", settings(Strategy::Mis, 32, 8, 8, by_power, power), &both),
         ("mis-brdf-only", settings(Strategy::Mis, 32, 0, 16, Each, balance), &area),
+        ("mis-lobes", settings(Strategy::MisLobes, 32, 8, 8, Each, balance), &both),
+        ("mis-lobes-power", settings(Strategy::MisLobes, 32, 8, 8, by_power, balance), &both),
     ];
     let cases: Vec<Case> =
         cases.into_iter().map(|(n, s, e)| Case { name: n.into(), settings: s, expected: e.clone() }).collect();
@@ -228,7 +230,8 @@ fn spot_and_directional_lights_match_the_closed_form() {
         &spot_scene,
         &[
             Case { name: "spot-light".into(), settings: mk(Strategy::Light, 1, 0), expected: spot.clone() },
-            Case { name: "spot-mis".into(), settings: mk(Strategy::Mis, 2, 2), expected: spot },
+            Case { name: "spot-mis".into(), settings: mk(Strategy::Mis, 2, 2), expected: spot.clone() },
+            Case { name: "spot-mis-lobes".into(), settings: mk(Strategy::MisLobes, 2, 2), expected: spot },
         ],
     );
 
@@ -244,7 +247,8 @@ fn spot_and_directional_lights_match_the_closed_form() {
         &sun_scene,
         &[
             Case { name: "sun-light".into(), settings: mk(Strategy::Light, 1, 0), expected: sun.clone() },
-            Case { name: "sun-mis".into(), settings: mk(Strategy::Mis, 3, 3), expected: sun },
+            Case { name: "sun-mis".into(), settings: mk(Strategy::Mis, 3, 3), expected: sun.clone() },
+            Case { name: "sun-mis-lobes".into(), settings: mk(Strategy::MisLobes, 3, 3), expected: sun },
         ],
     );
 }
@@ -321,6 +325,7 @@ fn a_perfect_mirror_reflects_fresnel_times_radiance_with_mis_weight_one() {
     for (strategy, light, brdf, sees_mirror) in [
         (Strategy::Brdf, 0, 2, true),
         (Strategy::Mis, 2, 2, true),
+        (Strategy::MisLobes, 2, 2, true),
         (Strategy::Light, 4, 0, false),
         (Strategy::Uniform, 0, 16, false),
     ] {

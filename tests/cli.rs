@@ -146,23 +146,31 @@ fn bench_writes_a_well_formed_report() {
     assert!(o.status.success(), "{}", stderr(&o));
     let csv = std::fs::read_to_string(dir.join("results.csv")).unwrap();
     let mut lines = csv.lines();
-    assert_eq!(lines.next().unwrap(), "scene,strategy,budget,spp,seconds,rmse,relmse,mae,efficiency,seed");
+    assert_eq!(
+        lines.next().unwrap(),
+        "scene,strategy,budget,spp,seconds,rmse,relmse,mae,efficiency,seed,max_value,nonfinite"
+    );
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    // 5 strategies × budgets 1, 2, 4 × 2 seeds.
-    assert_eq!(rows.len(), 5 * 3 * 2);
+    // 6 strategies × budgets 1, 2, 4 × 2 seeds.
+    assert_eq!(rows.len(), 6 * 3 * 2);
     for r in &rows {
-        assert_eq!(r.len(), 10, "{r:?}");
+        assert_eq!(r.len(), 12, "{r:?}");
         assert_eq!(r[0], "cornell-box");
-        for v in &r[3..9] {
+        for v in r[3..9].iter().chain(&r[10..12]) {
             let x: f64 = v.parse().unwrap_or_else(|_| panic!("not a number: {v}"));
             assert!(x.is_finite() && x >= 0.0, "{r:?}");
         }
         assert!(r[4].parse::<f64>().unwrap() > 0.0, "zero render time: {r:?}");
     }
     let strategies: std::collections::BTreeSet<&str> = rows.iter().map(|r| r[1]).collect();
-    assert_eq!(strategies.into_iter().collect::<Vec<_>>(), ["brdf", "light", "mis-balance", "mis-power", "uniform"]);
+    assert_eq!(
+        strategies.into_iter().collect::<Vec<_>>(),
+        ["brdf", "light", "mis-balance", "mis-lobes", "mis-power", "uniform"]
+    );
     let report = std::fs::read_to_string(dir.join("report.md")).unwrap();
-    for needle in ["## cornell-box", "Error at equal time", "Convergence", "By region", "cornell-box-relmse.svg"] {
+    for needle in
+        ["## cornell-box", "Error at equal time", "Convergence", "By region", "By material", "cornell-box-relmse.svg"]
+    {
         assert!(report.contains(needle), "report.md lacks {needle}");
     }
     assert!(std::fs::read_to_string(dir.join("cornell-box-relmse.svg")).unwrap().starts_with("<svg"));

@@ -102,7 +102,7 @@ fn emitters_are_one_sided_unless_double_sided() {
 fn empty_and_unlit_scenes_render_black() {
     let empty = upload(&veach::Scene::default());
     let camera = Camera::look_at("c", Vec3::Z, Vec3::ZERO, Vec3::Y, 1.0);
-    for strategy in [Strategy::Uniform, Strategy::Brdf, Strategy::Light, Strategy::Mis] {
+    for strategy in Strategy::ALL {
         let out = render(&empty, &small(strategy, 1), &camera);
         assert!(out.mean().iter().all(|p| *p == [0.0; 3]), "{strategy:?}");
         assert_eq!(out.nonfinite_samples, 0);
@@ -120,7 +120,7 @@ fn empty_and_unlit_scenes_render_black() {
     );
     let unlit = upload(&load(&g, "unlit"));
     let camera = Camera::look_at("c", Vec3::new(0.0, 2.0, 4.0), Vec3::ZERO, Vec3::Y, 1.0);
-    for strategy in [Strategy::Uniform, Strategy::Brdf, Strategy::Light, Strategy::Mis] {
+    for strategy in Strategy::ALL {
         let out = render(&unlit, &small(strategy, 1), &camera);
         assert!(out.mean().iter().all(|p| *p == [0.0; 3]), "{strategy:?}");
     }

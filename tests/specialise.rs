@@ -40,7 +40,7 @@ fn specialised_kernels_render_the_generic_kernels_image() {
     ] {
         let camera = scene.camera(None).unwrap();
         let gpu_scene = upload(&scene);
-        for strategy in [Strategy::Uniform, Strategy::Brdf, Strategy::Light, Strategy::Mis] {
+        for strategy in Strategy::ALL {
             for write_aovs in [false, true] {
                 let settings = RenderSettings {
                     width: 24,

@@ -5,7 +5,7 @@
 mod common;
 
 use common::*;
-use veach::{Heuristic, LightSelection, RenderSettings, Strategy};
+use veach::{Heuristic, LightSampling, LightSelection, RenderSettings, Strategy};
 
 struct Config {
     name: &'static str,
@@ -15,6 +15,14 @@ struct Config {
     brdf: u32,
     selection: LightSelection,
     heuristic: Heuristic,
+    sampling: LightSampling,
+}
+
+impl Config {
+    /// The same, with emitter triangles sampled by solid angle.
+    const fn solid_angle(self) -> Config {
+        Config { sampling: LightSampling::SolidAngle, ..self }
+    }
 }
 
 const fn config(
@@ -26,7 +34,7 @@ const fn config(
     selection: LightSelection,
     heuristic: Heuristic,
 ) -> Config {
-    Config { name, strategy, spp, light, brdf, selection, heuristic }
+    Config { name, strategy, spp, light, brdf, selection, heuristic, sampling: LightSampling::Area }
 }
 
 /// Compares each config with the reference over `block`×`block` regions, per colour channel.
@@ -50,6 +58,7 @@ fn check_scene(scene_name: &str, width: u32, height: u32, block: u32, reference:
         brdf_samples: c.brdf,
         light_selection: c.selection,
         heuristic: c.heuristic,
+        light_sampling: c.sampling,
         seed,
         ..Default::default()
     };
@@ -158,6 +167,7 @@ fn all_strategies_agree_on_the_cornell_box() {
             config("light-uniform", Strategy::Light, 64, 8, 0, Uniform, Balance),
             config("mis-balance", Strategy::Mis, 64, 4, 4, Each, Balance),
             config("mis-power", Strategy::Mis, 64, 4, 4, Power, PowerHeuristic),
+            config("mis-lobes", Strategy::MisLobes, 64, 4, 4, Each, Balance),
         ],
     );
 }
@@ -195,6 +205,7 @@ fn all_strategies_agree_on_glossy_surfaces() {
             config("light", Strategy::Light, 64, 16, 0, Each, Balance),
             config("mis-balance", Strategy::Mis, 64, 4, 4, Each, Balance),
             config("mis-power", Strategy::Mis, 64, 4, 4, Power, PowerHeuristic),
+            config("mis-lobes", Strategy::MisLobes, 64, 4, 4, Power, Balance),
         ],
     );
 }
@@ -220,6 +231,8 @@ fn mis_variants_agree_on_the_veach_mis_scene() {
             config("mis-power-selection", Strategy::Mis, 64, 8, 8, Power, PowerHeuristic),
             config("mis-uniform-selection", Strategy::Mis, 64, 8, 4, Uniform, Balance),
             config("mis-brdf-heavy", Strategy::Mis, 64, 1, 16, Each, PowerHeuristic),
+            config("mis-lobes", Strategy::MisLobes, 64, 4, 4, Power, Balance),
+            config("mis-lobes-each", Strategy::MisLobes, 64, 4, 4, Each, Balance),
         ],
     );
 }
@@ -253,6 +266,7 @@ fn brdf_and_mis_agree_on_perfect_mirrors() {
             config("brdf", Strategy::Brdf, 64, 0, 16, Each, Balance),
             config("mis-balance", Strategy::Mis, 64, 2, 2, Each, Balance),
             config("mis-power", Strategy::Mis, 64, 4, 4, Power, PowerHeuristic),
+            config("mis-lobes", Strategy::MisLobes, 64, 2, 2, Each, Balance),
         ],
     );
 }
@@ -276,4 +290,27 @@ fn all_strategies_agree_on_the_textured_scene() {
             config("mis-power", Strategy::Mis, 64, 4, 4, Power, PowerHeuristic),
         ],
     );
+}
+
+/// Solid-angle sampling of emitter triangles (Arvo 1995) converges to the area-sampled MIS
+/// reference: on the Cornell box, and on the stress scenes where it matters, a light touching
+/// the floor (r² → 0 at the contact edge) and one seen at grazing angles (cos θ_l → 0).
+#[test]
+fn solid_angle_light_sampling_agrees_with_area_sampling() {
+    let stress = |name: &str| {
+        let path = output_dir("scenes").join(format!("stress-{name}.gltf"));
+        veach::assets::stress::stress_scene(name).unwrap().write(&path).unwrap();
+        path.to_str().unwrap().to_owned()
+    };
+    let configs = [
+        config("light-solid-angle", Strategy::Light, 64, 8, 0, Each, Balance).solid_angle(),
+        config("mis-solid-angle", Strategy::Mis, 64, 4, 4, Power, PowerHeuristic).solid_angle(),
+        config("mis-lobes-solid-angle", Strategy::MisLobes, 64, 4, 4, Each, Balance).solid_angle(),
+    ];
+    let reference = config("reference", Strategy::Mis, 256, 8, 8, Each, Balance);
+    check_scene("cornell-box", 32, 32, 8, reference, &configs);
+    let reference = config("reference", Strategy::Mis, 256, 8, 8, Each, Balance);
+    check_scene(&stress("touching-light"), 24, 24, 6, reference, &configs);
+    let reference = config("reference", Strategy::Mis, 256, 8, 8, Each, Balance);
+    check_scene(&stress("grazing-light"), 24, 24, 6, reference, &configs);
 }

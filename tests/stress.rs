@@ -17,7 +17,7 @@ fn settings(strategy: Strategy, selection: LightSelection, spp: u32, seed: u32) 
         Strategy::Uniform => (0, 16),
         Strategy::Brdf => (0, 4),
         Strategy::Light => (4, 0),
-        Strategy::Mis => (2, 2),
+        Strategy::Mis | Strategy::MisLobes => (2, 2),
     };
     RenderSettings {
         width: 24,
@@ -33,12 +33,14 @@ fn settings(strategy: Strategy, selection: LightSelection, spp: u32, seed: u32) 
     }
 }
 
-const STRATEGIES: [(Strategy, LightSelection); 5] = [
+const STRATEGIES: [(Strategy, LightSelection); 7] = [
     (Strategy::Uniform, LightSelection::Each),
     (Strategy::Brdf, LightSelection::Each),
     (Strategy::Light, LightSelection::Each),
     (Strategy::Mis, LightSelection::Each),
     (Strategy::Mis, LightSelection::Power),
+    (Strategy::MisLobes, LightSelection::Each),
+    (Strategy::MisLobes, LightSelection::Power),
 ];
 
 /// Every strategy on every stress scene: the accumulated sums themselves (not only the image,

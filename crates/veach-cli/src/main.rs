@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
-use veach::{GpuContext, Heuristic, LightSelection, RenderSettings, Renderer, Strategy};
+use veach::{GpuContext, Heuristic, LightSampling, LightSelection, RenderSettings, Renderer, Strategy};
 
 #[derive(Parser)]
 #[command(
@@ -43,6 +43,18 @@ enum Command {
         #[arg(short, long)]
         output: PathBuf,
     },
+    /// Write a scene for Mitsuba 3 (scene.xml and PLY meshes), for the peer comparison in
+    /// bench/peer_mitsuba.py; refuses materials and lights that would not render the same
+    ExportMitsuba {
+        /// glTF scene (.gltf or .glb)
+        scene: PathBuf,
+        /// Output folder
+        #[arg(short, long)]
+        output: PathBuf,
+        /// Camera by name [default: the scene's first]
+        #[arg(long)]
+        camera: Option<String>,
+    },
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -55,6 +67,10 @@ enum StrategyArg {
     Light,
     /// Multiple importance sampling of light and BRDF samples
     Mis,
+    /// MIS per BSDF lobe: the diffuse lobe by light samples alone (the BRDF samples too become
+    /// light samples where there is no glossy lobe), the glossy lobe by MIS of light samples and
+    /// samples of that lobe
+    MisLobes,
 }
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -68,6 +84,14 @@ enum AovArg {
 enum HeuristicArg {
     Balance,
     Power,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum LightSamplingArg {
+    /// A point uniform on the emitter triangle's area (pdf r² / (|cos θ_l| A))
+    Area,
+    /// A direction uniform in the emitter triangle's solid angle (Arvo 1995; pdf 1/Ω)
+    SolidAngle,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -120,6 +144,13 @@ struct RenderArgs {
     heuristic: HeuristicArg,
     #[arg(long, value_enum, default_value_t = SelectionArg::Each)]
     light_selection: SelectionArg,
+    /// How a light sample picks its point on an emitter triangle
+    #[arg(long, value_enum, default_value_t = LightSamplingArg::Area)]
+    light_sampling: LightSamplingArg,
+    /// Leave out emission seen directly by camera rays: reflected light only, as `veach bench`
+    /// measures it
+    #[arg(long)]
+    hide_emitters: bool,
     /// Random seed: the same scene, options and seed give the same image on the same adapter
     #[arg(long, default_value_t = 0)]
     seed: u32,
@@ -182,6 +213,9 @@ struct ViewArgs {
     heuristic: HeuristicArg,
     #[arg(long, value_enum, default_value_t = SelectionArg::Power)]
     light_selection: SelectionArg,
+    /// How a light sample picks its point on an emitter triangle
+    #[arg(long, value_enum, default_value_t = LightSamplingArg::Area)]
+    light_sampling: LightSamplingArg,
     #[arg(long, default_value_t = 0)]
     seed: u32,
     /// Stop accumulating at this many camera samples per pixel (0: never)
@@ -250,6 +284,11 @@ struct BenchArgs {
     /// Camera samples per pixel of the rendered reference [default: 16 × --max-spp, at least 256]
     #[arg(long)]
     reference_spp: Option<u32>,
+    /// Strategies to compare, comma-separated [default: uniform,brdf,light,mis-balance,mis-power,
+    /// mis-lobes]; add -solid-angle to a light-sampling one for solid-angle sampling of
+    /// emitter triangles (e.g. light-solid-angle)
+    #[arg(long, value_name = "NAMES")]
+    strategies: Option<String>,
     /// Seconds of the equal-time comparison [default: mis-balance's time at the largest budget]
     #[arg(long)]
     equal_time: Option<f64>,
@@ -267,6 +306,7 @@ fn main() {
         Command::Bench(args) => bench(args),
         Command::Info { scene } => info(&scene),
         Command::Generate { name, output } => generate(&name, &output),
+        Command::ExportMitsuba { scene, output, camera } => export_mitsuba(&scene, &output, camera.as_deref()),
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
@@ -325,6 +365,9 @@ fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
         Strategy::Mis if light_samples + brdf_samples == 0 => {
             bail!("mis needs --light-samples or --brdf-samples above 0")
         }
+        Strategy::MisLobes if light_samples == 0 => {
+            bail!("--light-samples must be at least 1 for mis-lobes (the diffuse lobe has no other estimator)")
+        }
         _ => {}
     }
     Ok(RenderSettings {
@@ -336,8 +379,10 @@ fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
         brdf_samples,
         heuristic: heuristic_of(args.heuristic),
         light_selection: selection_of(args.light_selection),
+        light_sampling: light_sampling_of(args.light_sampling),
         seed: args.seed,
         time_limit,
+        hide_emitters: args.hide_emitters,
         write_aovs: !args.aov.is_empty(),
         specialise: !args.no_specialise,
         ..Default::default()
@@ -371,6 +416,7 @@ fn view(args: ViewArgs) -> Result<()> {
         brdf_samples: args.brdf_samples.unwrap_or(brdf_default),
         heuristic: heuristic_of(args.heuristic),
         light_selection: selection_of(args.light_selection),
+        light_sampling: light_sampling_of(args.light_sampling),
         seed: args.seed,
         ..options.settings
     };
@@ -388,6 +434,7 @@ fn strategy_of(arg: StrategyArg) -> Strategy {
         StrategyArg::Brdf => Strategy::Brdf,
         StrategyArg::Light => Strategy::Light,
         StrategyArg::Mis => Strategy::Mis,
+        StrategyArg::MisLobes => Strategy::MisLobes,
     }
 }
 
@@ -395,6 +442,13 @@ fn heuristic_of(arg: HeuristicArg) -> Heuristic {
     match arg {
         HeuristicArg::Balance => Heuristic::Balance,
         HeuristicArg::Power => Heuristic::Power,
+    }
+}
+
+fn light_sampling_of(arg: LightSamplingArg) -> LightSampling {
+    match arg {
+        LightSamplingArg::Area => LightSampling::Area,
+        LightSamplingArg::SolidAngle => LightSampling::SolidAngle,
     }
 }
 
@@ -429,10 +483,10 @@ fn render(args: RenderArgs) -> Result<()> {
             args.scene.display()
         ));
     }
-    if !args.aov.is_empty() && settings.strategy != Strategy::Mis {
+    if !args.aov.is_empty() && !matches!(settings.strategy, Strategy::Mis | Strategy::MisLobes) {
         say(format!(
             "note: contribution images split the {} estimate into light-sample and BRDF-sample parts; \
-             they show MIS weighting only with --strategy mis",
+             they show MIS weighting only with --strategy mis or mis-lobes",
             settings.strategy.name()
         ));
     }
@@ -556,13 +610,19 @@ fn bench(args: BenchArgs) -> Result<()> {
             .map(Budget::Spp)
             .collect()
     };
+    if args.strategies.as_deref().is_some_and(|s| s.split(',').all(|n| n.trim().is_empty())) {
+        bail!("--strategies names no strategy");
+    }
     std::fs::create_dir_all(&args.output).with_context(|| format!("cannot create {}", args.output.display()))?;
     let config = BenchConfig {
         width: args.width,
         height: args.height,
         budgets,
         seeds: args.seeds,
-        strategies: veach::bench::default_strategies(),
+        strategies: match &args.strategies {
+            Some(names) => veach::bench::strategies_by_name(names).map_err(|e| anyhow::anyhow!(e))?,
+            None => veach::bench::default_strategies(),
+        },
         reference_spp: args.reference_spp.unwrap_or((16 * args.max_spp).max(256)),
         reference: args.reference.clone(),
         equal_time: args.equal_time,
@@ -586,10 +646,20 @@ fn bench(args: BenchArgs) -> Result<()> {
             .expect("valid template"),
     );
     let mut rows = Vec::new();
+    let counts: Vec<String> = config
+        .strategies
+        .iter()
+        .map(|s| match s.strategy {
+            Strategy::Uniform | Strategy::Brdf => format!("{} {}", s.name, s.brdf_samples),
+            Strategy::Light => format!("{} {}", s.name, s.light_samples),
+            Strategy::Mis | Strategy::MisLobes => format!("{} {} + {}", s.name, s.light_samples, s.brdf_samples),
+        })
+        .collect();
     let mut report = format!(
-        "# veach bench\n\nAdapter: {}. Strategies per camera sample: uniform 2, brdf 2, light 2, mis 1 + 1 \
-         (one light chosen by power per light sample). Times are render times only ({}).\n\n",
+        "# veach bench\n\nAdapter: {}. Samples per camera sample: {} (one light chosen by power per light \
+         sample). Times are render times only ({}).\n\n",
         renderer.gpu.describe(),
+        counts.join(", "),
         if renderer.gpu.has_timestamps { "GPU timestamps" } else { "wall clock around submit and wait" }
     );
     let mut summaries = Vec::new();
@@ -597,6 +667,7 @@ fn bench(args: BenchArgs) -> Result<()> {
         let gpu_scene = renderer.upload_scene(scene)?;
         let result = bench_scene(
             &renderer,
+            scene,
             &gpu_scene,
             camera,
             path,
@@ -690,6 +761,14 @@ fn info(path: &Path) -> Result<()> {
     for w in &scene.warnings {
         println!("  warning: {w}");
     }
+    Ok(())
+}
+
+fn export_mitsuba(path: &Path, output: &Path, camera: Option<&str>) -> Result<()> {
+    let scene = veach::load_gltf(path)?;
+    let camera = scene.camera(camera).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
+    veach::mitsuba::export(&scene, &camera, output).with_context(|| format!("{}", path.display()))?;
+    eprintln!("wrote {}", output.join("scene.xml").display());
     Ok(())
 }
 

@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
 use veach::scene::Camera;
-use veach::{Heuristic, LightSelection, RenderSettings, Renderer, Strategy};
+use veach::{Heuristic, LightSampling, LightSelection, RenderSettings, Renderer, Strategy};
 
 /// How the viewer starts.
 #[derive(Clone, Debug)]
@@ -57,6 +57,7 @@ pub struct Controls {
     pub strategy: Strategy,
     pub heuristic: Heuristic,
     pub light_selection: LightSelection,
+    pub light_sampling: LightSampling,
     pub light_samples: u32,
     pub brdf_samples: u32,
     pub seed: u32,
@@ -112,6 +113,7 @@ impl ViewerApp {
             strategy: s.strategy,
             heuristic: s.heuristic,
             light_selection: s.light_selection,
+            light_sampling: s.light_sampling,
             light_samples: s.light_samples,
             brdf_samples: s.brdf_samples,
             seed: s.seed,
@@ -162,6 +164,7 @@ impl ViewerApp {
             brdf_samples: c.brdf_samples,
             heuristic: c.heuristic,
             light_selection: c.light_selection,
+            light_sampling: c.light_sampling,
             seed: c.seed,
             write_aovs: c.view.needs_contributions(),
             hide_emitters: c.hide_emitters,
@@ -179,13 +182,19 @@ impl ViewerApp {
                 s.brdf_samples,
                 if s.heuristic == Heuristic::Power { "power" } else { "balance" }
             ),
+            Strategy::MisLobes => format!(
+                "{}+{} per lobe {}",
+                s.light_samples,
+                s.brdf_samples,
+                if s.heuristic == Heuristic::Power { "power" } else { "balance" }
+            ),
         };
         let selection = match s.light_selection {
             LightSelection::Each => "each light",
             LightSelection::Uniform => "uniform light",
             LightSelection::Power => "light by power",
         };
-        format!("{} {counts}, {selection}, seed {}", s.strategy.name(), s.seed)
+        format!("{} {counts}, {selection} ({}), seed {}", s.strategy.name(), s.light_sampling.name(), s.seed)
     }
 
     /// Restarts accumulation when the wanted settings or camera differ from the current ones.
@@ -336,7 +345,7 @@ impl ViewerApp {
     fn controls_ui(&mut self, ui: &mut egui::Ui) {
         let c = &mut self.controls;
         ui.heading("Strategy");
-        for s in [Strategy::Uniform, Strategy::Brdf, Strategy::Light, Strategy::Mis] {
+        for s in Strategy::ALL {
             if ui.radio_value(&mut c.strategy, s, s.name()).changed() {
                 (c.light_samples, c.brdf_samples) = interactive_sample_counts(s);
             }
@@ -353,7 +362,7 @@ impl ViewerApp {
                 ui.add(egui::DragValue::new(&mut c.brdf_samples).range(0..=1024)).labelled_by(label.id);
             });
         });
-        ui.add_enabled_ui(c.strategy == Strategy::Mis, |ui| {
+        ui.add_enabled_ui(matches!(c.strategy, Strategy::Mis | Strategy::MisLobes), |ui| {
             ui.label("MIS heuristic");
             ui.horizontal(|ui| {
                 ui.radio_value(&mut c.heuristic, Heuristic::Balance, "balance");
@@ -365,6 +374,9 @@ impl ViewerApp {
             ui.radio_value(&mut c.light_selection, LightSelection::Each, "every light");
             ui.radio_value(&mut c.light_selection, LightSelection::Uniform, "one, uniformly");
             ui.radio_value(&mut c.light_selection, LightSelection::Power, "one, by power");
+            ui.label("point on a light");
+            ui.radio_value(&mut c.light_sampling, LightSampling::Area, "uniform in area");
+            ui.radio_value(&mut c.light_sampling, LightSampling::SolidAngle, "uniform in solid angle");
         });
         ui.separator();
         ui.heading("Image");
@@ -616,7 +628,7 @@ pub fn interactive_sample_counts(strategy: Strategy) -> (u32, u32) {
     match strategy {
         Strategy::Uniform | Strategy::Brdf => (0, 2),
         Strategy::Light => (2, 0),
-        Strategy::Mis => (1, 1),
+        Strategy::Mis | Strategy::MisLobes => (1, 1),
     }
 }
 
@@ -626,6 +638,7 @@ fn sample_count_problem(s: &RenderSettings) -> Option<String> {
         Strategy::Uniform | Strategy::Brdf => s.brdf_samples == 0,
         Strategy::Light => s.light_samples == 0,
         Strategy::Mis => s.light_samples + s.brdf_samples == 0,
+        Strategy::MisLobes => s.light_samples == 0,
     };
     problem.then(|| format!("{} needs at least one sample of its kind per camera sample", s.strategy.name()))
 }

@@ -89,7 +89,7 @@ impl Accumulation {
         let creation_start = Instant::now();
         let (kernel, created) = renderer.kernel(key)?;
         let bind_group = renderer.bind_group(&kernel, &params_buffer, scene, &outputs, &[]);
-        let params = renderer.frame_params(scene.light_count, settings, camera);
+        let params = renderer.frame_params(scene, settings, camera);
         let mut acc = Accumulation {
             gpu: gpu.clone(),
             settings: settings.clone(),

@@ -7,7 +7,9 @@
 //! time each strategy needs to reach a target error and the fitted convergence slope.
 
 use crate::error::{Error, Result};
-use crate::render::{GpuScene, Heuristic, LightSelection, RenderOutput, RenderSettings, Renderer, Strategy};
+use crate::render::{
+    GpuScene, Heuristic, LightSampling, LightSelection, RenderOutput, RenderSettings, Renderer, Strategy,
+};
 use crate::scene::Camera;
 use std::time::Duration;
 
@@ -29,9 +31,52 @@ pub struct BenchStrategy {
     pub brdf_samples: u32,
     pub heuristic: Heuristic,
     pub light_selection: LightSelection,
+    pub light_sampling: LightSampling,
 }
 
+/// The strategies `veach bench` runs unless told otherwise.
 pub fn default_strategies() -> Vec<BenchStrategy> {
+    let all = strategy_catalogue();
+    ["uniform", "brdf", "light", "mis-balance", "mis-power", "mis-lobes"]
+        .iter()
+        .filter_map(|n| all.iter().find(|s| s.name == *n).cloned())
+        .collect()
+}
+
+/// Every strategy `--strategies` can name: the defaults, and the light-sampling ones again with
+/// solid-angle sampling of emitter triangles (suffix `-solid-angle`).
+pub fn strategy_catalogue() -> Vec<BenchStrategy> {
+    let mut all = area_strategies();
+    let solid: Vec<BenchStrategy> = all
+        .iter()
+        .filter(|s| s.strategy.samples_lights())
+        .map(|s| BenchStrategy {
+            name: format!("{}-solid-angle", s.name),
+            light_sampling: LightSampling::SolidAngle,
+            ..s.clone()
+        })
+        .collect();
+    all.extend(solid);
+    all
+}
+
+/// Strategies by name (comma-separated), from `strategy_catalogue`.
+pub fn strategies_by_name(names: &str) -> std::result::Result<Vec<BenchStrategy>, String> {
+    let all = strategy_catalogue();
+    names
+        .split(',')
+        .map(|n| n.trim())
+        .filter(|n| !n.is_empty())
+        .map(|n| {
+            all.iter().find(|s| s.name == n).cloned().ok_or_else(|| {
+                let known: Vec<&str> = all.iter().map(|s| s.name.as_str()).collect();
+                format!("unknown bench strategy '{n}' (known: {})", known.join(", "))
+            })
+        })
+        .collect()
+}
+
+fn area_strategies() -> Vec<BenchStrategy> {
     let s = |name: &str, strategy, light_samples, brdf_samples, heuristic| BenchStrategy {
         name: name.into(),
         strategy,
@@ -39,6 +84,7 @@ pub fn default_strategies() -> Vec<BenchStrategy> {
         brdf_samples,
         heuristic,
         light_selection: LightSelection::Power,
+        light_sampling: LightSampling::Area,
     };
     vec![
         s("uniform", Strategy::Uniform, 0, 2, Heuristic::Balance),
@@ -46,6 +92,7 @@ pub fn default_strategies() -> Vec<BenchStrategy> {
         s("light", Strategy::Light, 2, 0, Heuristic::Balance),
         s("mis-balance", Strategy::Mis, 1, 1, Heuristic::Balance),
         s("mis-power", Strategy::Mis, 1, 1, Heuristic::Power),
+        s("mis-lobes", Strategy::MisLobes, 1, 1, Heuristic::Balance),
     ]
 }
 
@@ -100,6 +147,9 @@ pub fn reference_settings(width: u32, height: u32, spp: u32) -> RenderSettings {
 
 /// Renders the reference: MIS with the balance heuristic, every light sampled, 4 + 4 samples
 /// per camera sample.
+/// The rendered reference samples every light up to this many lights.
+pub const MAX_LIGHTS_SAMPLED_EACH: u32 = 32;
+
 pub fn render_reference(
     renderer: &Renderer,
     scene: &GpuScene,
@@ -109,14 +159,26 @@ pub fn render_reference(
     spp: u32,
     progress: &mut dyn FnMut(f64) -> bool,
 ) -> Result<Reference> {
-    let settings = reference_settings(width, height, spp);
+    let mut settings = reference_settings(width, height, spp);
+    // Every light's own samples cost rays in proportion to the light count: past a few dozen
+    // lights, one light chosen by power per light sample (16 of them) reaches a lower error.
+    let by_power = scene.light_count > MAX_LIGHTS_SAMPLED_EACH;
+    if by_power {
+        settings.light_selection = LightSelection::Power;
+        settings.light_samples = 16;
+    }
     let out = renderer.render(scene, &settings, camera, &mut |p| progress(p.fraction))?;
     if out.interrupted {
         return Err(Error::Options("the reference render was interrupted".into()));
     }
     let pixels = out.mean();
     let own_relmse = expected_relmse(&out, &pixels);
-    Ok(Reference { pixels, source: format!("MIS 4+4, every light, {spp} spp"), own_relmse })
+    let source = if by_power {
+        format!("MIS 16+4, lights by power, {spp} spp")
+    } else {
+        format!("MIS 4+4, every light, {spp} spp")
+    };
+    Ok(Reference { pixels, source, own_relmse })
 }
 
 /// E[relMSE] of a render against the truth, estimated from its per-pixel variance of the mean.
@@ -147,6 +209,10 @@ pub struct BenchRow {
     pub seconds: f64,
     pub metrics: ErrorMetrics,
     pub seed: u32,
+    /// Largest channel value of the image (a firefly shows here first).
+    pub max_value: f32,
+    /// Non-finite samples the kernel dropped.
+    pub nonfinite: u64,
 }
 
 impl BenchRow {
@@ -170,6 +236,7 @@ pub fn render_settings(s: &BenchStrategy, width: u32, height: u32, budget: &Budg
         brdf_samples: s.brdf_samples,
         heuristic: s.heuristic,
         light_selection: s.light_selection,
+        light_sampling: s.light_sampling,
         seed,
         time_limit,
         // Short dispatches keep a time budget from overshooting.
@@ -215,6 +282,8 @@ pub fn measure(
         seconds: render_seconds(&out),
         metrics,
         seed,
+        max_value: out.mean().iter().flatten().fold(0.0f32, |m, &v| m.max(v)),
+        nonfinite: out.nonfinite_samples,
     };
     Ok((row, out))
 }

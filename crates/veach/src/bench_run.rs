@@ -5,7 +5,7 @@ use crate::bench::*;
 use crate::error::{Error, Result};
 use crate::image_io;
 use crate::render::{GpuScene, RenderSettings, Renderer};
-use crate::scene::Camera;
+use crate::scene::{Camera, Scene};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 
@@ -37,6 +37,8 @@ pub struct SceneBench {
     pub target_relmse: f64,
     /// Per image region at equal time: which strategy is best and how MIS compares.
     pub regions: Vec<RegionResult>,
+    /// The same, per material seen by the camera.
+    pub materials: Vec<RegionResult>,
     pub kernels: KernelComparison,
     pub report: String,
 }
@@ -93,65 +95,139 @@ pub const REGION_GRID: u32 = 4;
 
 #[derive(Clone, Debug)]
 pub struct RegionResult {
-    pub row: u32,
-    pub col: u32,
+    /// "(row, col)" of a grid region, or the material's name and pixel count.
+    pub label: String,
     /// Strategy with the lowest median relMSE, and that median.
     pub best: String,
     pub best_relmse: f64,
     pub worst: String,
-    /// mis-balance's median relMSE over the best one's.
-    pub mis_ratio: f64,
-    /// mis-balance's median lies within the best strategy's spread over seeds (or it is best).
-    pub mis_within_noise: bool,
+    /// For each MIS strategy (name starting with "mis"), in the configured order.
+    pub mis: Vec<MisRegion>,
 }
 
-/// relMSE of each REGION_GRID × REGION_GRID region, row by row.
-fn region_relmse(image: &[[f32; 3]], reference: &[[f32; 3]], w: u32, h: u32) -> Vec<f64> {
+#[derive(Clone, Debug)]
+pub struct MisRegion {
+    pub strategy: String,
+    /// Its median relMSE over the best strategy's.
+    pub ratio: f64,
+    /// Its mean over seeds exceeds the best one's by at most two standard errors of the
+    /// difference (or it is the best).
+    pub within_noise: bool,
+}
+
+/// A set of pixels the per-region comparison measures separately.
+pub struct Region {
+    pub label: String,
+    pub pixels: Vec<usize>,
+}
+
+/// The image cut into REGION_GRID × REGION_GRID rectangles, row by row.
+pub fn grid_regions(w: u32, h: u32) -> Vec<Region> {
     let mut out = Vec::new();
     for ry in 0..REGION_GRID {
         for rx in 0..REGION_GRID {
             let (x0, x1) = (rx * w / REGION_GRID, (rx + 1) * w / REGION_GRID);
             let (y0, y1) = (ry * h / REGION_GRID, (ry + 1) * h / REGION_GRID);
-            let (mut img, mut refr) = (Vec::new(), Vec::new());
-            for y in y0..y1 {
-                for x in x0..x1 {
-                    img.push(image[(y * w + x) as usize]);
-                    refr.push(reference[(y * w + x) as usize]);
-                }
-            }
-            out.push(error_metrics(&img, &refr).relmse);
+            let pixels = (y0..y1).flat_map(|y| (x0..x1).map(move |x| (y * w + x) as usize)).collect();
+            out.push(Region { label: format!("({ry}, {rx})"), pixels });
         }
     }
     out
 }
 
-fn region_table(strategies: &[BenchStrategy], errors: &[Vec<Vec<f64>>]) -> Vec<RegionResult> {
-    let mis = strategies.iter().position(|s| s.name == "mis-balance");
-    let n = (REGION_GRID * REGION_GRID) as usize;
+/// Fewest pixels a material needs to get its own row in the by-material comparison.
+const MIN_MATERIAL_PIXELS: usize = 64;
+
+/// The pixels whose centre sees each material first (emitters and misses left out), traced on
+/// the host with the scene's own BVH builder and obvhs's traversal: which surface a region is
+/// made of says more than where it is in the frame (the diffuse walls, each plate).
+pub fn material_regions(scene: &Scene, camera: &Camera, w: u32, h: u32) -> Vec<Region> {
+    use glam::Vec3A;
+    use obvhs::ray::{Ray, RayHit};
+    let tris: Vec<obvhs::triangle::Triangle> = scene
+        .triangles
+        .iter()
+        .map(|t| obvhs::triangle::Triangle { v0: t.p[0].into(), v1: t.p[1].into(), v2: t.p[2].into() })
+        .collect();
+    if tris.is_empty() {
+        return Vec::new();
+    }
+    let mut core_time = std::time::Duration::ZERO;
+    let bvh = obvhs::bvh2::builder::build_bvh2_from_tris(&tris, obvhs::BvhBuildParams::fast_build(), &mut core_time);
+    let g = camera.to_gpu(w, h);
+    let (f, r, u) = (glam::Vec3::from(g.forward), glam::Vec3::from(g.right), glam::Vec3::from(g.up));
+    let mut pixels: Vec<Vec<usize>> = vec![Vec::new(); scene.materials.len()];
+    for py in 0..h {
+        for px in 0..w {
+            // Pixel centre, as camera.wgsl maps (x, y) + 0.5.
+            let sx = 2.0 * (px as f32 + 0.5) / w as f32 - 1.0;
+            let sy = 1.0 - 2.0 * (py as f32 + 0.5) / h as f32;
+            let d = (f + sx * r + sy * u).normalize();
+            let ray = Ray::new_inf(Vec3A::from(camera.position), Vec3A::from(d));
+            let mut hit = RayHit::none();
+            if bvh.ray_traverse(ray, &mut hit, |ray, id| tris[bvh.primitive_indices[id] as usize].intersect(ray)) {
+                let tri = &scene.triangles[bvh.primitive_indices[hit.primitive_id as usize] as usize];
+                let m = tri.material as usize;
+                if m < pixels.len() && !scene.materials[m].is_emissive() {
+                    pixels[m].push((py * w + px) as usize);
+                }
+            }
+        }
+    }
+    pixels
+        .into_iter()
+        .enumerate()
+        .filter(|(_, p)| p.len() >= MIN_MATERIAL_PIXELS)
+        .map(|(m, p)| Region { label: format!("{} ({} px)", scene.materials[m].name, p.len()), pixels: p })
+        .collect()
+}
+
+/// relMSE of `image` against `reference` over each region.
+fn region_relmse(image: &[[f32; 3]], reference: &[[f32; 3]], regions: &[Region]) -> Vec<f64> {
+    regions
+        .iter()
+        .map(|region| {
+            let img: Vec<[f32; 3]> = region.pixels.iter().map(|&i| image[i]).collect();
+            let refr: Vec<[f32; 3]> = region.pixels.iter().map(|&i| reference[i]).collect();
+            error_metrics(&img, &refr).relmse
+        })
+        .collect()
+}
+
+fn region_table(strategies: &[BenchStrategy], regions: &[Region], errors: &[Vec<Vec<f64>>]) -> Vec<RegionResult> {
+    let mis: Vec<usize> = (0..strategies.len()).filter(|&i| strategies[i].name.starts_with("mis")).collect();
+    let n = regions.len();
     let mut out = Vec::new();
     for region in 0..n {
-        // Per strategy: (median, max) over seeds.
-        let stats: Vec<(f64, f64)> = errors
+        // Per strategy over seeds: (median, mean, variance of the mean).
+        let stats: Vec<(f64, f64, f64)> = errors
             .iter()
             .map(|seeds| {
-                let (m, _, hi) = median_spread(&mut seeds.iter().map(|e| e[region]).collect::<Vec<_>>());
-                (m, hi)
+                let x: Vec<f64> = seeds.iter().map(|e| e[region]).collect();
+                let (median, _, _) = median_spread(&mut x.clone());
+                let k = x.len() as f64;
+                let mean = x.iter().sum::<f64>() / k;
+                let var = if x.len() > 1 { x.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / (k - 1.0) } else { 0.0 };
+                (median, mean, var / k)
             })
             .collect();
         let best = (0..stats.len()).min_by(|&a, &b| stats[a].0.total_cmp(&stats[b].0)).unwrap_or(0);
         let worst = (0..stats.len()).max_by(|&a, &b| stats[a].0.total_cmp(&stats[b].0)).unwrap_or(0);
-        let (mis_ratio, within) = match mis {
-            Some(m) => (stats[m].0 / stats[best].0.max(f64::MIN_POSITIVE), stats[m].0 <= stats[best].1),
-            None => (f64::NAN, false),
-        };
+        let mis = mis
+            .iter()
+            .map(|&m| MisRegion {
+                strategy: strategies[m].name.clone(),
+                ratio: stats[m].0 / stats[best].0.max(f64::MIN_POSITIVE),
+                // Welch's comparison of the two means over seeds, at two standard errors.
+                within_noise: stats[m].1 - stats[best].1 <= 2.0 * (stats[m].2 + stats[best].2).sqrt(),
+            })
+            .collect();
         out.push(RegionResult {
-            row: region as u32 / REGION_GRID,
-            col: region as u32 % REGION_GRID,
+            label: regions[region].label.clone(),
             best: strategies[best].name.clone(),
             best_relmse: stats[best].0,
             worst: strategies[worst].name.clone(),
-            mis_ratio,
-            mis_within_noise: within,
+            mis,
         });
     }
     out
@@ -167,6 +243,7 @@ pub fn bench_units(config: &BenchConfig) -> u64 {
 #[allow(clippy::too_many_arguments)]
 pub fn bench_scene(
     renderer: &Renderer,
+    host_scene: &Scene,
     scene: &GpuScene,
     camera: &Camera,
     scene_path: &Path,
@@ -198,7 +275,8 @@ pub fn bench_scene(
                 (Ok((cw, ch, pixels)), Ok(own)) if (cw, ch) == (w, h) => Reference {
                     pixels,
                     source: format!(
-                        "MIS 4+4, every light, {} spp (cached in {})",
+                        "MIS 4+4, every light (16+4 by power past {MAX_LIGHTS_SAMPLED_EACH} lights), {} spp \
+                         (cached in {})",
                         config.reference_spp,
                         cache.display()
                     ),
@@ -247,24 +325,30 @@ pub fn bench_scene(
     // table and grid, and per-region errors of every seed for the region table.
     let mut equal_time = Vec::new();
     let mut images = Vec::new();
+    let grid = grid_regions(w, h);
+    let by_material = material_regions(host_scene, camera, w, h);
     let mut region_errors: Vec<Vec<Vec<f64>>> = Vec::new(); // [strategy][seed][region]
+    let mut material_errors: Vec<Vec<Vec<f64>>> = Vec::new();
     for s in &config.strategies {
         progress(done, units_total, &format!("{name}: {} at {equal_time_seconds:.3} s", s.name));
         let budget = Budget::Seconds(equal_time_seconds);
-        let mut per_seed = Vec::new();
+        let (mut per_seed, mut per_seed_material) = (Vec::new(), Vec::new());
         for seed in 1..=config.seeds {
             let (row, out) = measure(renderer, scene, camera, &name, &reference, s, &budget, 1000 + seed, w, h)?;
             let mean = out.mean();
-            per_seed.push(region_relmse(&mean, &reference.pixels, w, h));
+            per_seed.push(region_relmse(&mean, &reference.pixels, &grid));
+            per_seed_material.push(region_relmse(&mean, &reference.pixels, &by_material));
             if seed == 1 {
                 images.push((s.name.clone(), mean));
                 equal_time.push(row);
             }
         }
         region_errors.push(per_seed);
+        material_errors.push(per_seed_material);
         done += 1;
     }
-    let regions = region_table(&config.strategies, &region_errors);
+    let regions = region_table(&config.strategies, &grid, &region_errors);
+    let materials = region_table(&config.strategies, &by_material, &material_errors);
 
     // Target error: what mis-balance reaches at its largest budget.
     let target_relmse = curves
@@ -294,6 +378,7 @@ pub fn bench_scene(
         reference_relmse: reference.own_relmse,
         target_relmse,
         regions,
+        materials,
         kernels,
         report: String::new(),
     };
@@ -302,11 +387,11 @@ pub fn bench_scene(
 }
 
 pub fn csv(rows: &[BenchRow]) -> String {
-    let mut s = String::from("scene,strategy,budget,spp,seconds,rmse,relmse,mae,efficiency,seed\n");
+    let mut s = String::from("scene,strategy,budget,spp,seconds,rmse,relmse,mae,efficiency,seed,max_value,nonfinite\n");
     for r in rows {
         let _ = writeln!(
             s,
-            "{},{},{},{:.3},{:.6},{:.6e},{:.6e},{:.6e},{:.6e},{}",
+            "{},{},{},{:.3},{:.6},{:.6e},{:.6e},{:.6e},{:.6e},{},{:.6e},{}",
             r.scene,
             r.strategy,
             r.budget,
@@ -316,7 +401,9 @@ pub fn csv(rows: &[BenchRow]) -> String {
             r.metrics.relmse,
             r.metrics.mae,
             r.efficiency(),
-            r.seed
+            r.seed,
+            r.max_value,
+            r.nonfinite
         );
     }
     s
@@ -491,8 +578,11 @@ fn report_section(b: &SceneBench, config: &BenchConfig, plot: &Path, grid: &Path
          for a finite-variance estimator, shallower than {SHALLOW_SLOPE} flags infinite variance.\n",
         b.target_relmse
     );
-    let _ = writeln!(s, "| strategy | slope | seconds to target | median relMSE at each budget |");
-    let _ = writeln!(s, "|---|---|---|---|");
+    let _ = writeln!(
+        s,
+        "| strategy | slope | seconds to target | median relMSE at each budget | max pixel | non-finite dropped |"
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|");
     for c in &b.curves {
         let slope = fit_convergence(c).map(|(_, b)| b);
         let slope_text = match slope {
@@ -506,34 +596,33 @@ fn report_section(b: &SceneBench, config: &BenchConfig, plot: &Path, grid: &Path
             None => "–".into(),
         };
         let per_budget: Vec<String> = c.points.iter().map(|p| format!("{:.2e}", p.relmse)).collect();
-        let _ = writeln!(s, "| {} | {slope_text} | {time} | {} |", c.strategy, per_budget.join(", "));
+        // Over every render of the sweep: the brightest pixel and the samples dropped.
+        let sweep = b.rows.iter().filter(|r| r.strategy == c.strategy);
+        let (max_value, nonfinite) = sweep.fold((0.0f32, 0u64), |(m, n), r| (m.max(r.max_value), n + r.nonfinite));
+        let _ = writeln!(
+            s,
+            "| {} | {slope_text} | {time} | {} | {max_value:.3e} | {nonfinite} |",
+            c.strategy,
+            per_budget.join(", ")
+        );
     }
     let _ = writeln!(
         s,
         "\n### By region, at equal time\n\nThe image cut into {g}×{g} regions; relMSE per region, median over \
-         {} seeds. mis-balance is *within noise* of the best where its median is at most the best strategy's \
-         largest error over the seeds.\n",
+         {} seeds (the best is the lowest median). A MIS strategy is *within noise* of the best where its \
+         mean over the seeds exceeds the best one's by at most two standard errors of the difference \
+         (sqrt(s²_mis/k + s²_best/k), s² the variance over the k seeds); each MIS column gives its median \
+         over the best one's, marked **(no)** where it is not within noise.\n",
         config.seeds,
         g = REGION_GRID
     );
+    region_report(&mut s, "region (row, col)", &b.regions);
     let _ = writeln!(
         s,
-        "| region (row, col) | best | best relMSE | worst | mis-balance / best | mis-balance within noise |"
+        "\n### By material, at equal time\n\nThe pixels whose centre sees each material first (traced on the \
+         host; materials on fewer than {MIN_MATERIAL_PIXELS} pixels and emitters left out), compared as above.\n"
     );
-    let _ = writeln!(s, "|---|---|---|---|---|---|");
-    for r in &b.regions {
-        let _ = writeln!(
-            s,
-            "| ({}, {}) | {} | {:.2e} | {} | {:.2} | {} |",
-            r.row,
-            r.col,
-            r.best,
-            r.best_relmse,
-            r.worst,
-            r.mis_ratio,
-            if r.mis_within_noise { "yes" } else { "**no**" }
-        );
-    }
+    region_report(&mut s, "material", &b.materials);
     let k = &b.kernels;
     let _ = writeln!(
         s,
@@ -582,4 +671,24 @@ pub fn slope_warnings(b: &SceneBench) -> Vec<String> {
             })
         })
         .collect()
+}
+
+/// A summary line per MIS strategy and a table of `regions` (best, worst, each MIS strategy's
+/// ratio to the best).
+fn region_report(s: &mut String, what: &str, regions: &[RegionResult]) {
+    let mis_names: Vec<&str> =
+        regions.first().map(|r| r.mis.iter().map(|m| m.strategy.as_str()).collect()).unwrap_or_default();
+    for name in &mis_names {
+        let within = regions.iter().filter(|r| r.mis.iter().any(|m| m.strategy == *name && m.within_noise)).count();
+        let _ = writeln!(s, "- {name}: best or within noise of the best on {within} of {}", regions.len());
+    }
+    let mis_headers: Vec<String> = mis_names.iter().map(|n| format!("{n} / best")).collect();
+    let _ = writeln!(s, "\n| {what} | best | best relMSE | worst | {} |", mis_headers.join(" | "));
+    let _ = writeln!(s, "|---|---|---|---|{}", "---|".repeat(mis_names.len()));
+    for r in regions {
+        let cells: Vec<String> =
+            r.mis.iter().map(|m| format!("{:.2}{}", m.ratio, if m.within_noise { "" } else { " **(no)**" })).collect();
+        let _ =
+            writeln!(s, "| {} | {} | {:.2e} | {} | {} |", r.label, r.best, r.best_relmse, r.worst, cells.join(" | "));
+    }
 }

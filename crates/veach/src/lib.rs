@@ -13,6 +13,7 @@ pub mod error;
 pub mod features;
 pub mod gpu;
 pub mod image_io;
+pub mod mitsuba;
 pub mod render;
 pub mod scene;
 pub mod shaders;
@@ -21,5 +22,7 @@ pub mod stats;
 pub use accumulation::Accumulation;
 pub use error::{Error, Result};
 pub use gpu::context::GpuContext;
-pub use render::{GpuScene, Heuristic, LightSelection, RenderOutput, RenderSettings, Renderer, Strategy};
+pub use render::{
+    GpuScene, Heuristic, LightSampling, LightSelection, RenderOutput, RenderSettings, Renderer, Strategy,
+};
 pub use scene::{Scene, load_gltf};

@@ -23,6 +23,9 @@ pub enum Strategy {
     Brdf,
     Light,
     Mis,
+    /// MIS per BSDF lobe: the diffuse lobe by light sampling alone (n + m light samples where
+    /// there is no glossy lobe), the glossy lobe by MIS of n light and m glossy-lobe samples.
+    MisLobes,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -41,18 +44,42 @@ pub enum LightSelection {
     Power,
 }
 
+/// How light sampling picks a point on an emitter triangle (after choosing the triangle by area).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum LightSampling {
+    /// Uniform on the triangle's area: p_ω = r² / (|cos θ_l| A).
+    #[default]
+    Area,
+    /// Uniform in the triangle's solid angle (Arvo 1995): p_ω = P(triangle) / Ω, bounded where
+    /// area sampling's r² / cos θ_l blows up (contact edges, grazing angles). Triangles that
+    /// subtend less than 3e-4 sr keep area sampling.
+    SolidAngle,
+}
+
+impl LightSampling {
+    pub fn name(self) -> &'static str {
+        match self {
+            LightSampling::Area => "area",
+            LightSampling::SolidAngle => "solid-angle",
+        }
+    }
+}
+
 impl Strategy {
+    pub const ALL: [Strategy; 5] =
+        [Strategy::Uniform, Strategy::Brdf, Strategy::Light, Strategy::Mis, Strategy::MisLobes];
     pub fn name(self) -> &'static str {
         match self {
             Strategy::Uniform => "uniform",
             Strategy::Brdf => "brdf",
             Strategy::Light => "light",
             Strategy::Mis => "mis",
+            Strategy::MisLobes => "mis-lobes",
         }
     }
     /// Whether the strategy samples lights (and so can see point, spot and directional lights).
     pub fn samples_lights(self) -> bool {
-        matches!(self, Strategy::Light | Strategy::Mis)
+        matches!(self, Strategy::Light | Strategy::Mis | Strategy::MisLobes)
     }
     /// Default (light samples, BRDF-or-uniform samples) per camera sample: the classic
     /// comparison of MIS with 32 + 32 against 1024 uniform directions.
@@ -61,7 +88,7 @@ impl Strategy {
             Strategy::Uniform => (0, 1024),
             Strategy::Brdf => (0, 64),
             Strategy::Light => (64, 0),
-            Strategy::Mis => (32, 32),
+            Strategy::Mis | Strategy::MisLobes => (32, 32),
         }
     }
 }
@@ -78,6 +105,7 @@ pub struct RenderSettings {
     pub brdf_samples: u32,
     pub heuristic: Heuristic,
     pub light_selection: LightSelection,
+    pub light_sampling: LightSampling,
     pub seed: u32,
     /// Stop once this much render time is spent (whole dispatches), even before `spp`.
     pub time_limit: Option<Duration>,
@@ -103,6 +131,7 @@ impl Default for RenderSettings {
             brdf_samples,
             heuristic: Heuristic::Balance,
             light_selection: LightSelection::Each,
+            light_sampling: LightSampling::Area,
             seed: 0,
             time_limit: None,
             dispatch_target: Duration::from_millis(150),
@@ -415,20 +444,22 @@ impl Renderer {
         })
     }
 
-    pub(crate) fn frame_params(&self, light_count: u32, s: &RenderSettings, camera: &Camera) -> FrameParams {
+    pub(crate) fn frame_params(&self, scene: &GpuScene, s: &RenderSettings, camera: &Camera) -> FrameParams {
+        let (strategy, light_samples, brdf_samples) = crate::features::effective_strategy(&scene.features, s);
         FrameParams {
             camera: camera.to_gpu(s.width, s.height),
             width: s.width,
             height: s.height,
             seed: s.seed,
-            strategy: match s.strategy {
+            strategy: match strategy {
                 Strategy::Uniform => layout::STRATEGY_UNIFORM,
                 Strategy::Brdf => layout::STRATEGY_BRDF,
                 Strategy::Light => layout::STRATEGY_LIGHT,
                 Strategy::Mis => layout::STRATEGY_MIS,
+                Strategy::MisLobes => layout::STRATEGY_MIS_LOBES,
             },
-            light_samples: if s.strategy.samples_lights() { s.light_samples } else { 0 },
-            brdf_samples: if s.strategy == Strategy::Light { 0 } else { s.brdf_samples },
+            light_samples: if strategy.samples_lights() { light_samples } else { 0 },
+            brdf_samples: if strategy == Strategy::Light { 0 } else { brdf_samples },
             heuristic: match s.heuristic {
                 Heuristic::Balance => layout::HEURISTIC_BALANCE,
                 Heuristic::Power => layout::HEURISTIC_POWER,
@@ -438,7 +469,11 @@ impl Renderer {
                 LightSelection::Uniform => layout::SELECT_UNIFORM,
                 LightSelection::Power => layout::SELECT_POWER,
             },
-            light_count,
+            light_count: scene.light_count,
+            light_sampling: match s.light_sampling {
+                LightSampling::Area => layout::LIGHT_SAMPLING_AREA,
+                LightSampling::SolidAngle => layout::LIGHT_SAMPLING_SOLID_ANGLE,
+            },
             write_aovs: s.write_aovs as u32,
             hide_emitters: s.hide_emitters as u32,
             ..Default::default()

@@ -8,6 +8,7 @@ pub const STRATEGY_UNIFORM: u32 = 0;
 pub const STRATEGY_BRDF: u32 = 1;
 pub const STRATEGY_LIGHT: u32 = 2;
 pub const STRATEGY_MIS: u32 = 3;
+pub const STRATEGY_MIS_LOBES: u32 = 4;
 
 pub const HEURISTIC_BALANCE: u32 = 0;
 pub const HEURISTIC_POWER: u32 = 1;
@@ -15,6 +16,9 @@ pub const HEURISTIC_POWER: u32 = 1;
 pub const SELECT_EACH: u32 = 0;
 pub const SELECT_UNIFORM: u32 = 1;
 pub const SELECT_POWER: u32 = 2;
+
+pub const LIGHT_SAMPLING_AREA: u32 = 0;
+pub const LIGHT_SAMPLING_SOLID_ANGLE: u32 = 1;
 
 pub const LIGHT_AREA: u32 = 0;
 pub const LIGHT_POINT: u32 = 1;
@@ -59,7 +63,7 @@ pub struct FrameParams {
     pub light_count: u32,
     pub write_aovs: u32,
     pub hide_emitters: u32,
-    pub _pad1: u32,
+    pub light_sampling: u32,
 }
 
 #[repr(C)]
@@ -224,7 +228,8 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             light_selection,
             light_count,
             write_aovs,
-            hide_emitters
+            hide_emitters,
+            light_sampling
         }),
         layout!(BvhNode { min, first, max, count }),
         layout!(TriangleVerts { p0, p1, p2 }),

@@ -1,0 +1,157 @@
+#!/usr/bin/env python3
+"""veach against Mitsuba 3 at equal time, on the same CPU, against the same reference.
+
+    python3 bench/peer_mitsuba.py assets/cornell-box.gltf assets/veach-mis.gltf -o target/peer
+
+For each scene: `veach export-mitsuba` writes the same triangles, normals, radiance and camera
+as Mitsuba XML/PLY; a reference is rendered by veach (MIS 4+4, every light, --reference-spp);
+then veach (MIS, 1 light + 1 BRDF sample per camera sample, one light chosen by power) and
+Mitsuba 3 (`llvm_ad_rgb`, integrator `direct` with emitter_samples = bsdf_samples = 1) render
+at 1, 2, 4 ... --max-spp samples per pixel over --seeds seeds. Emitters seen directly are left
+out of every image (both renderers' hide_emitters), so errors measure reflected light, as
+`veach bench` does. Times are render times: veach's from its --stats (kernel creation and
+uploads excluded), Mitsuba's wall clock around mi.render after one untimed render at the same
+sample count (so that its JIT compilation is excluded too). relMSE = mean over pixels and
+channels of (x - r)^2 / (r^2 + 1e-2), efficiency = 1 / (relMSE x seconds).
+
+Where the two BRDFs differ by definition (glTF's Schlick Fresnel and height-correlated Smith
+term against Mitsuba's perfect conductor tinted by specular_reflectance and separable Smith
+term, on metals), Mitsuba converges to a different image: the script also renders Mitsuba at
+--mitsuba-reference-spp and reports the relMSE between the two references, which is the floor
+under Mitsuba's error against veach's reference. On an all-Lambertian scene (the Cornell box)
+the two references must agree.
+
+Needs: `pip install mitsuba numpy`; Mitsuba's LLVM variants need libLLVM >= 16
+(Debian 12: `apt-get install libllvm19`, then DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1).
+Writes DIR/peer.csv and prints a Markdown table (docs/performance.md holds the measured one).
+"""
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+EPSILON = 1e-2
+
+
+def read_pfm(path):
+    with open(path, "rb") as f:
+        if f.readline().strip() != b"PF":
+            raise ValueError(f"{path}: not a colour PFM")
+        w, h = map(int, f.readline().split())
+        scale = float(f.readline())
+        data = np.fromfile(f, "<f4" if scale < 0 else ">f4").reshape(h, w, 3)
+    return data[::-1].astype(np.float64)  # PFM rows run bottom to top
+
+
+def relmse(x, r):
+    return float(np.mean((x - r) ** 2 / (r * r + EPSILON)))
+
+
+def run(cmd):
+    p = subprocess.run(cmd, capture_output=True, text=True)
+    if p.returncode != 0:
+        sys.exit(f"{' '.join(map(str, cmd))} failed:\n{p.stderr}")
+    return p
+
+
+def veach_render(veach, scene, out, width, height, spp, seed, light, brdf, strategy="mis", selection="power"):
+    stats = out.with_suffix(".json")
+    run([veach, "render", scene, "-o", out, "--width", str(width), "--height", str(height), "--spp", str(spp),
+         "--seed", str(seed), "--strategy", strategy, "--light-samples", str(light), "--brdf-samples", str(brdf),
+         "--light-selection", selection, "--hide-emitters", "--stats", stats, "--quiet"])
+    s = json.loads(stats.read_text())
+    return read_pfm(out), s["timings_seconds"]["render"]
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("scenes", nargs="+")
+    ap.add_argument("-o", "--output", default="target/peer")
+    ap.add_argument("--width", type=int, default=256)
+    ap.add_argument("--height", type=int, default=256)
+    ap.add_argument("--max-spp", type=int, default=64)
+    ap.add_argument("--seeds", type=int, default=3)
+    ap.add_argument("--reference-spp", type=int, default=512)
+    ap.add_argument("--mitsuba-reference-spp", type=int, default=4096)
+    ap.add_argument("--veach", default="target/release/veach")
+    args = ap.parse_args()
+
+    import drjit as dr
+    import mitsuba as mi
+    mi.set_variant("llvm_ad_rgb")
+
+    out_dir = Path(args.output)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    budgets = [1 << k for k in range(20) if (1 << k) <= args.max_spp]
+    rows = []
+    summary = []
+    for scene in args.scenes:
+        name = Path(scene).stem
+        xml_dir = out_dir / f"{name}-mitsuba"
+        run([args.veach, "export-mitsuba", scene, "-o", xml_dir])
+        w, h = args.width, args.height
+
+        ref_path = out_dir / f"{name}-reference-{w}x{h}-{args.reference_spp}spp.pfm"
+        if not ref_path.exists():
+            veach_render(args.veach, scene, ref_path, w, h, args.reference_spp, 0x5eed, 4, 4, selection="each")
+        reference = read_pfm(ref_path)
+
+        def mitsuba_render(spp, seed, timed=True):
+            m_scene = mi.load_file(str(xml_dir / "scene.xml"), spp=spp, width=w, height=h)
+            if timed:
+                dr.eval(mi.render(m_scene, seed=seed + 1000, spp=spp))  # compile, untimed
+                dr.sync_thread()
+            t0 = time.perf_counter()
+            img = mi.render(m_scene, seed=seed, spp=spp)
+            dr.eval(img)
+            dr.sync_thread()
+            seconds = time.perf_counter() - t0
+            return np.array(img, dtype=np.float64)[..., :3], seconds
+
+        m_ref_path = out_dir / f"{name}-mitsuba-reference-{args.mitsuba_reference_spp}spp.npy"
+        if not m_ref_path.exists():
+            img, _ = mitsuba_render(args.mitsuba_reference_spp, 7, timed=False)
+            np.save(m_ref_path, img)
+        m_reference = np.load(m_ref_path)
+        floor = relmse(m_reference, reference)
+
+        for spp in budgets:
+            for seed in range(1, args.seeds + 1):
+                img, seconds = veach_render(args.veach, scene, out_dir / f"{name}-veach.pfm", w, h, spp, seed, 1, 1)
+                rows.append((name, "veach", spp, seed, seconds, relmse(img, reference)))
+                img, seconds = mitsuba_render(spp, seed)
+                rows.append((name, "mitsuba", spp, seed, seconds, relmse(img, reference)))
+                print(f"{name} spp {spp} seed {seed}: veach {rows[-2][4]:.3f} s relMSE {rows[-2][5]:.3e}, "
+                      f"mitsuba {rows[-1][4]:.3f} s relMSE {rows[-1][5]:.3e}", file=sys.stderr)
+
+        def median_efficiency(renderer, spp):
+            pts = [r for r in rows if r[0] == name and r[1] == renderer and r[2] == spp]
+            return (statistics.median(1.0 / (r[4] * r[5]) for r in pts), statistics.median(r[4] for r in pts),
+                    statistics.median(r[5] for r in pts))
+
+        for spp in budgets:
+            ve, vt, vr = median_efficiency("veach", spp)
+            me, mt, mr = median_efficiency("mitsuba", spp)
+            summary.append((name, spp, vt, vr, ve, mt, mr, me, ve / me, floor))
+
+    with open(out_dir / "peer.csv", "w") as f:
+        f.write("scene,renderer,spp,seed,seconds,relmse\n")
+        for r in rows:
+            f.write(",".join(str(v) for v in r) + "\n")
+    print("| scene | spp | veach s | veach relMSE | veach eff. | Mitsuba s | Mitsuba relMSE | Mitsuba eff. "
+          "| veach / Mitsuba eff. | relMSE between references |")
+    print("|---|---|---|---|---|---|---|---|---|---|")
+    for s in summary:
+        print(f"| {s[0]} | {s[1]} | {s[2]:.3f} | {s[3]:.3e} | {s[4]:.3g} | {s[5]:.3f} | {s[6]:.3e} | {s[7]:.3g} "
+              f"| {s[8]:.2f} | {s[9]:.2e} |")
+
+
+if __name__ == "__main__":
+    main()
