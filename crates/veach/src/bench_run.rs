@@ -423,7 +423,16 @@ fn write_plot(path: &Path, scene: &str, curves: &[Curve]) -> Result<()> {
         }
     }
     if x0 >= x1 || y0 >= y1 {
-        return Err(err("nothing to plot: no positive times or errors".into()));
+        // Every error is zero (a scene that is black for every strategy, such as a camera sealed
+        // in a box): a log-log plot has nothing to show; say so in the file the report links.
+        let svg = format!(
+            "<svg xmlns=\"http://www.w3.org/2000/svg\" width=\"640\" height=\"80\"><text x=\"10\" y=\"40\">\
+             {scene}: every relMSE is zero or every time is zero: nothing to plot</text></svg>\n"
+        );
+        return image_io::write_atomically(path, |f| {
+            use std::io::Write;
+            f.write_all(svg.as_bytes()).map_err(|e| e.to_string())
+        });
     }
     let mut svg = String::new();
     {
