@@ -152,6 +152,13 @@ fn floor_scene(name: &str, left: MaterialDesc, right: MaterialDesc, light: MeshD
 }
 use LightSelection::{Each, Power, Uniform};
 
+/// A stress scene (`veach::assets::stress`) written as glTF; returns its path.
+fn stress_scene_file(name: &str) -> String {
+    let path = output_dir("scenes").join(format!("stress-{name}.gltf"));
+    veach::assets::stress::stress_scene(name).unwrap().write(&path).unwrap();
+    path.to_str().unwrap().to_owned()
+}
+
 #[test]
 fn all_strategies_agree_on_the_cornell_box() {
     check_scene(
@@ -298,11 +305,6 @@ fn all_strategies_agree_on_the_textured_scene() {
 /// uniform, BRDF and area-sampled MIS there.
 #[test]
 fn solid_angle_light_sampling_agrees_with_area_sampling() {
-    let stress = |name: &str| {
-        let path = output_dir("scenes").join(format!("stress-{name}.gltf"));
-        veach::assets::stress::stress_scene(name).unwrap().write(&path).unwrap();
-        path.to_str().unwrap().to_owned()
-    };
     // Light sampling by area is left out on these two: its variance is infinite there (the
     // bench's slopes are -0.75 and -0.84), which is the point of solid-angle sampling.
     let configs = [
@@ -316,9 +318,9 @@ fn solid_angle_light_sampling_agrees_with_area_sampling() {
     let reference = config("reference", Strategy::Mis, 256, 8, 8, Each, Balance);
     check_scene("cornell-box", 32, 32, 8, reference, &configs);
     let reference = config("reference", Strategy::Mis, 256, 8, 8, Each, Balance);
-    check_scene(&stress("touching-light"), 24, 24, 6, reference, &configs);
+    check_scene(&stress_scene_file("touching-light"), 24, 24, 6, reference, &configs);
     let reference = config("reference", Strategy::Mis, 256, 8, 8, Each, Balance);
-    check_scene(&stress("grazing-light"), 24, 24, 6, reference, &configs);
+    check_scene(&stress_scene_file("grazing-light"), 24, 24, 6, reference, &configs);
 }
 
 /// The other stiff stress scenes, with every strategy whose variance is finite there: a tiny,
@@ -328,13 +330,8 @@ fn solid_angle_light_sampling_agrees_with_area_sampling() {
 /// cannot reach a mirror lobe and is left out: it converges to the image without it).
 #[test]
 fn finite_variance_strategies_agree_on_the_stiff_stress_scenes() {
-    let stress = |name: &str| {
-        let path = output_dir("scenes").join(format!("stress-{name}.gltf"));
-        veach::assets::stress::stress_scene(name).unwrap().write(&path).unwrap();
-        path.to_str().unwrap().to_owned()
-    };
     check_scene(
-        &stress("tiny-bright-light"),
+        &stress_scene_file("tiny-bright-light"),
         24,
         24,
         6,
@@ -346,7 +343,7 @@ fn finite_variance_strategies_agree_on_the_stiff_stress_scenes() {
         ],
     );
     check_scene(
-        &stress("many-lights"),
+        &stress_scene_file("many-lights"),
         24,
         24,
         6,
@@ -358,7 +355,7 @@ fn finite_variance_strategies_agree_on_the_stiff_stress_scenes() {
         ],
     );
     check_scene(
-        &stress("near-mirrors"),
+        &stress_scene_file("near-mirrors"),
         24,
         24,
         6,
