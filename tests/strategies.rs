@@ -330,40 +330,36 @@ fn solid_angle_light_sampling_agrees_with_area_sampling() {
 /// cannot reach a mirror lobe and is left out: it converges to the image without it).
 #[test]
 fn finite_variance_strategies_agree_on_the_stiff_stress_scenes() {
-    check_scene(
-        &stress_scene_file("tiny-bright-light"),
-        24,
-        24,
-        6,
-        config("reference", Strategy::Mis, 256, 8, 8, Each, Balance),
-        &[
-            config("light", Strategy::Light, 64, 8, 0, Each, Balance),
-            config("mis-power", Strategy::Mis, 64, 4, 4, Each, PowerHeuristic),
-            config("mis-lobes", Strategy::MisLobes, 64, 4, 4, Each, Balance),
-        ],
-    );
-    check_scene(
-        &stress_scene_file("many-lights"),
-        24,
-        24,
-        6,
-        config("reference", Strategy::Mis, 256, 16, 4, Power, Balance),
-        &[
-            config("light-by-power", Strategy::Light, 64, 8, 0, Power, Balance),
-            config("mis-by-power", Strategy::Mis, 64, 4, 4, Power, PowerHeuristic),
-            config("mis-lobes-by-power", Strategy::MisLobes, 64, 4, 4, Power, Balance),
-        ],
-    );
-    check_scene(
-        &stress_scene_file("near-mirrors"),
-        24,
-        24,
-        6,
-        config("reference", Strategy::Mis, 256, 4, 4, Each, Balance),
-        &[
-            config("brdf", Strategy::Brdf, 64, 0, 8, Each, Balance),
-            config("mis-balance", Strategy::Mis, 64, 2, 2, Each, Balance),
-            config("mis-lobes", Strategy::MisLobes, 64, 2, 2, Each, PowerHeuristic),
-        ],
-    );
+    let cases = [
+        (
+            "tiny-bright-light",
+            config("reference", Strategy::Mis, 256, 8, 8, Each, Balance),
+            [
+                config("light", Strategy::Light, 64, 8, 0, Each, Balance),
+                config("mis-power", Strategy::Mis, 64, 4, 4, Each, PowerHeuristic),
+                config("mis-lobes", Strategy::MisLobes, 64, 4, 4, Each, Balance),
+            ],
+        ),
+        (
+            "many-lights",
+            config("reference", Strategy::Mis, 256, 16, 4, Power, Balance),
+            [
+                config("light-by-power", Strategy::Light, 64, 8, 0, Power, Balance),
+                config("mis-by-power", Strategy::Mis, 64, 4, 4, Power, PowerHeuristic),
+                config("mis-lobes-by-power", Strategy::MisLobes, 64, 4, 4, Power, Balance),
+            ],
+        ),
+        (
+            "near-mirrors",
+            config("reference", Strategy::Mis, 256, 4, 4, Each, Balance),
+            [
+                config("brdf", Strategy::Brdf, 64, 0, 8, Each, Balance),
+                config("mis-balance", Strategy::Mis, 64, 2, 2, Each, Balance),
+                config("mis-lobes", Strategy::MisLobes, 64, 2, 2, Each, PowerHeuristic),
+            ],
+        ),
+    ];
+    for (scene, reference, configs) in cases {
+        check_scene(&stress_scene_file(scene), 24, 24, 6, reference, &configs);
+    }
 }
