@@ -19,6 +19,8 @@ bugs=(
   "shaders/bsdf.wgsl|return p_spec * ggx_vndf_pdf(wo, wi, p.alpha) + diffuse;|return 0.5 * ggx_vndf_pdf(wo, wi, p.alpha) + diffuse;|sampling|gltf_brdf|mixture pdf ignores the lobe probability"
   "shaders/integrator.wgsl|r.p_light = select(p_select * ls.pdf, p_select, r.is_delta);|r.p_light = select(p_select * ls.pdf, p_select / f32(frame.light_samples), r.is_delta);|analytic|delta_light|delta light skips the 1/n (Mitsuba 3 #1861)"
   "shaders/integrator.wgsl|if trace_occluded(origin, shadow_dir, t_max) {|if trace_occluded(origin, ls.wi, t_max) {|strategies|solid_angle|shadow ray along the sample direction from the offset origin"
+  "shaders/integrator.wgsl|w = mis_weight(f32(plan.m), d.pdf, f32(plan.n), p_light);|w = mis_weight(f32(plan.n), d.pdf, f32(plan.m), p_light);|strategies|veach_mis|BRDF samples weighted with the counts swapped"
+  "shaders/integrator.wgsl|return sum / f32(plan.n);|return sum / f32(total);|strategies|veach_mis|every light's samples averaged over all lights"
   "shaders/sampling.wgsl|(k2 + (k2 * cos_phi - k1 * sin_phi) * cos_alpha) / denom|(k2 + (k2 * cos_phi - k1 * sin_phi)) * cos_alpha / denom|sampling|area_light|Arvo's cos β' with a misplaced parenthesis"
   "shaders/mis.wgsl|    let f = n_f * pdf_f;\n    let g = n_g * pdf_g;\n    if f <= 0.0 {\n        return 0.0;\n    }\n    return 1.0 / (1.0 + g / f);|    let f = pdf_f;\n    let g = pdf_g;\n    if f <= 0.0 {\n        return 0.0;\n    }\n    return 1.0 / (1.0 + g / f);|sampling|mis_weights|balance heuristic without the sample counts"
   "shaders/lights.wgsl|return light_power_cdf[index] - lo;|return light_power_cdf[index];|sampling|light_selection|power selection pdf is the CDF, not its step"

@@ -8,7 +8,8 @@
 //   mis:     (1/n) Σ w_l f L_e cos / p_l + (1/m) Σ w_b f L_e cos / p_b   (Veach & Guibas 1995, eq. 8)
 //   mis-lobes: f = f_diffuse + f_glossy; the diffuse lobe by light sampling alone (n + m light
 //            samples where there is no glossy lobe), the glossy lobe by MIS of n light samples
-//            and m samples of that lobe (Veach & Guibas 1995, eq. 8, counts fixed per point)
+//            and m samples of that lobe (Veach & Guibas 1995, eq. 8, counts fixed per point; the
+//            m become light samples where no light is wider than the lobe)
 // Delta lights are reached only through light sampling and always get MIS weight 1.
 
 struct SurfaceHit {
@@ -82,22 +83,40 @@ struct ShadingContext {
     bsdf: BsdfParams,
 }
 
+// How a light sample is weighted (SamplePlan.light_weighting).
+const LIGHT_ALONE: u32 = 0u;
+// Against sampling the whole BSDF (mis).
+const LIGHT_MIS: u32 = 1u;
+// The diffuse lobe's part alone, the glossy lobe's part against sampling that lobe (mis-lobes).
+const LIGHT_LOBE_MIS: u32 = 2u;
+
+// What the strategy takes at one shading point: n light samples (per light with SELECT_EACH),
+// weighted as light_weighting says, and m direction samples. The counts are fixed from the point
+// alone before any sampling, which keeps MIS unbiased when they vary (Veach & Guibas 1995, eq. 8).
+struct SamplePlan {
+    n: u32,
+    light_weighting: u32,
+    m: u32,
+}
+
+// ---------------------------------------------------------------------------------------------
+// Light samples: a point or direction on a light, a shadow ray, a weight.
+
 // A light sample seen from the surface, before any weighting: g = f L_e |cos θ_i| (zero when
-// occluded or facing away), and the densities with which the light strategy (selection
-// included) and BRDF sampling produce its direction.
+// occluded or facing away), and the density with which the light strategy (selection included)
+// produces its direction.
 struct LightSampleEval {
     g: vec3f,
     p_light: f32,
-    p_brdf: f32,
     is_delta: bool,
-    // The glossy lobe's part of g, and the density of sampling that lobe alone (glossy_lobe_sample).
+    // The glossy lobe's part of g, and the sampled direction in the shading frame.
     g_glossy: vec3f,
-    p_glossy: f32,
+    wi: vec3f,
 }
 
 // One sample of light `index`, chosen with probability p_select, with its shadow ray traced.
 fn trace_light_sample(c: ShadingContext, index: u32, p_select: f32, rng: ptr<function, u32>, rays: ptr<function, u32>) -> LightSampleEval {
-    var r = LightSampleEval(vec3f(0.0), 0.0, 0.0, false, vec3f(0.0), 0.0);
+    var r = LightSampleEval(vec3f(0.0), 0.0, false, vec3f(0.0), vec3f(0.0));
     let u = vec3f(rng_next(rng), rng_next2(rng));
     let ls = sample_light(index, c.s.p, u);
     if ls.pdf <= 0.0 || dot(ls.wi, c.s.ng) <= 0.0 {
@@ -135,151 +154,232 @@ fn trace_light_sample(c: ShadingContext, index: u32, p_select: f32, rng: ptr<fun
     r.is_delta = HAS_DELTA_LIGHTS && ls.is_delta;
     // A delta light's "pdf" is the probability of choosing it; no direction density.
     r.p_light = select(p_select * ls.pdf, p_select, r.is_delta);
-    r.p_brdf = select(bsdf_pdf(c.bsdf, c.wo, wi), 0.0, r.is_delta);
     r.g_glossy = lobes.glossy * ls.value * wi.z;
-    if HAS_GLOSSY && !c.bsdf.delta && !r.is_delta {
-        r.p_glossy = ggx_vndf_pdf(c.wo, wi, c.bsdf.alpha);
-    }
+    r.wi = wi;
     return r;
 }
 
-// One light sample, weighted: g / p_light, times the MIS weight against BRDF sampling.
-fn light_sample_contribution(c: ShadingContext, index: u32, p_select: f32, use_mis: bool, rng: ptr<function, u32>, rays: ptr<function, u32>) -> vec3f {
-    let s = trace_light_sample(c, index, p_select, rng, rays);
+// A light sample's contribution g / p_light, MIS-weighted as the plan says. A delta light has
+// no density to weigh against: weight 1.
+fn light_sample_value(c: ShadingContext, s: LightSampleEval, plan: SamplePlan) -> vec3f {
     if all(s.g == vec3f(0.0)) {
         return vec3f(0.0);
     }
-    // A delta light has no density to weigh against: MIS weight 1.
-    var w = 1.0;
-    if use_mis && !s.is_delta {
-        w = mis_weight(f32(frame.light_samples), s.p_light, f32(frame.brdf_samples), s.p_brdf);
+    if s.is_delta || plan.light_weighting == LIGHT_ALONE || plan.m == 0u {
+        return s.g / s.p_light;
     }
-    return w * s.g / s.p_light;
+    if plan.light_weighting == LIGHT_MIS {
+        let w = mis_weight(f32(plan.n), s.p_light, f32(plan.m), bsdf_pdf(c.bsdf, c.wo, s.wi));
+        return w * s.g / s.p_light;
+    }
+    // LIGHT_LOBE_MIS: the density of sampling the glossy lobe alone (sample_direction); m > 0
+    // there only for a GGX lobe or a mirror, and a mirror's g_glossy is zero.
+    let p_glossy = select(ggx_vndf_pdf(c.wo, s.wi, c.bsdf.alpha), 0.0, c.bsdf.delta);
+    let w = mis_weight(f32(plan.n), s.p_light, f32(plan.m), p_glossy);
+    return (s.g - s.g_glossy + w * s.g_glossy) / s.p_light;
 }
 
-// Light sampling: n samples of each light (SELECT_EACH) or n samples of one chosen light.
-fn estimate_light_sampling(c: ShadingContext, use_mis: bool, rng: ptr<function, u32>, rays: ptr<function, u32>) -> vec3f {
-    if frame.light_count == 0u || frame.light_samples == 0u {
+// The plan's light samples: n of each light (SELECT_EACH), or n of one light chosen per sample.
+// One loop, so the shadow-ray traversal is inlined once.
+fn estimate_light_samples(c: ShadingContext, plan: SamplePlan, rng: ptr<function, u32>, rays: ptr<function, u32>) -> vec3f {
+    if frame.light_count == 0u || plan.n == 0u {
         return vec3f(0.0);
     }
+    let each = frame.light_selection == SELECT_EACH;
+    let total = select(plan.n, plan.n * frame.light_count, each);
     var sum = vec3f(0.0);
-    if frame.light_selection == SELECT_EACH {
-        for (var li = 0u; li < frame.light_count; li++) {
-            for (var k = 0u; k < frame.light_samples; k++) {
-                sum += light_sample_contribution(c, li, 1.0, use_mis, rng, rays);
-            }
+    for (var k = 0u; k < total; k++) {
+        var li = k / plan.n;
+        var p_select = 1.0;
+        if !each {
+            li = select_light(rng_next(rng));
+            p_select = light_selection_pdf(li);
         }
-    } else {
-        for (var k = 0u; k < frame.light_samples; k++) {
-            let li = select_light(rng_next(rng));
-            sum += light_sample_contribution(c, li, light_selection_pdf(li), use_mis, rng, rays);
-        }
+        sum += light_sample_value(c, trace_light_sample(c, li, p_select, rng, rays), plan);
     }
-    return sum / f32(frame.light_samples);
+    return sum / f32(plan.n);
 }
 
-// A direction sampled at the surface, before any weighting: g = f L_e |cos θ_i| with L_e
-// emitted by the first hit, and the density with which the light strategy would have
-// produced the same direction (zero unless the hit is on a light).
-struct DirectionEval {
-    g: vec3f,
-    p_light: f32,
-    // The glossy lobe's part of g.
-    g_glossy: vec3f,
+// ---------------------------------------------------------------------------------------------
+// Direction samples (uniform, BRDF, glossy lobe): a direction, a closest-hit ray, what it finds.
+
+// A direction sampled at the shading point, waiting for its closest hit.
+struct DirectionSample {
+    // World direction and its density.
+    wi: vec3f,
+    pdf: f32,
+    // f |cos θ_i| / pdf for the sampled lobes, or a mirror's reflectance over its choice
+    // probability: the radiance the ray finds times this is the sample's estimate.
+    throughput: vec3f,
+    // Weigh what it finds against light sampling (false for uniform, BRDF alone and mirrors).
+    mis: bool,
+    // False where the direction adds nothing (below the surface, f = 0): no ray is traced.
+    valid: bool,
 }
 
-fn trace_direction(c: ShadingContext, wi_world: vec3f, rays: ptr<function, u32>) -> DirectionEval {
-    var r = DirectionEval(vec3f(0.0), 0.0, vec3f(0.0));
-    if dot(wi_world, c.s.ng) <= 0.0 {
-        return r;
+// A sample with a density: f of all lobes, or of the glossy lobe alone.
+fn density_sample(c: ShadingContext, wi: vec3f, pdf: f32, glossy_only: bool, mis: bool) -> DirectionSample {
+    var d = DirectionSample(frame_to_world(c.frame, wi), pdf, vec3f(0.0), mis, false);
+    if pdf <= 0.0 || wi.z <= 0.0 || dot(d.wi, c.s.ng) <= 0.0 {
+        return d;
     }
-    let wi = frame_to_local(c.frame, wi_world);
     let lobes = bsdf_eval_lobes(c.bsdf, c.wo, wi);
-    let f = lobes.diffuse + lobes.glossy;
-    if all(f == vec3f(0.0)) {
-        return r;
+    let f = select(lobes.diffuse + lobes.glossy, lobes.glossy, glossy_only);
+    d.throughput = f * wi.z / pdf;
+    d.valid = any(f != vec3f(0.0));
+    return d;
+}
+
+// A mirror direction: no other technique produces it (MIS weight 1), and its estimate is the
+// reflectance over the probability of choosing the mirror lobe times the radiance found.
+fn mirror_sample(c: ShadingContext, wi: vec3f, reflectance_over_pdf: vec3f) -> DirectionSample {
+    var d = DirectionSample(frame_to_world(c.frame, wi), 1.0, reflectance_over_pdf, false, false);
+    d.valid = dot(d.wi, c.s.ng) > 0.0;
+    return d;
+}
+
+// The strategy's next direction sample:
+//   uniform: the hemisphere around the shading normal, pdf 1/2π;
+//   brdf, mis: the glTF BRDF (a lobe chosen, then GGX visible normals or cosine; or the mirror);
+//   mis-lobes: the glossy lobe alone (GGX visible normals, or the mirror direction).
+fn sample_direction(c: ShadingContext, rng: ptr<function, u32>) -> DirectionSample {
+    let strategy = active_strategy();
+    if strategy == STRATEGY_UNIFORM {
+        let wi = sample_uniform_hemisphere(rng_next2(rng));
+        return density_sample(c, wi, uniform_hemisphere_pdf(), false, false);
     }
-    let origin = offset_ray_origin(c.s.p, c.s.ng, wi_world);
-    *rays += 1u;
-    let hit = trace_closest(origin, wi_world, RAY_INF);
-    if !hit.found {
-        return r;
+    if strategy == STRATEGY_MIS_LOBES {
+        let u = rng_next2(rng);
+        if HAS_MIRRORS && c.bsdf.delta {
+            return mirror_sample(c, vec3f(-c.wo.x, -c.wo.y, c.wo.z), mirror_reflectance(c.bsdf, c.wo.z));
+        }
+        let wi = reflect(-c.wo, sample_ggx_vndf(c.wo, c.bsdf.alpha, u));
+        return density_sample(c, wi, ggx_vndf_pdf(c.wo, wi, c.bsdf.alpha), true, true);
     }
-    let e = surface_at(hit, wi_world);
+    let u = vec3f(rng_next(rng), rng_next2(rng));
+    let bs = bsdf_sample(c.bsdf, c.wo, u);
+    if HAS_MIRRORS && bs.delta {
+        var d = mirror_sample(c, bs.wi, bs.delta_reflectance / bs.pdf);
+        d.valid = d.valid && bs.pdf > 0.0;
+        return d;
+    }
+    return density_sample(c, bs.wi, bs.pdf, false, strategy == STRATEGY_MIS);
+}
+
+// What a direction sample found at surface `e` (triangle `tri`): the emitted radiance times its
+// throughput, MIS-weighted against the light strategy's density for the same direction (zero
+// unless `e` is on a light; that density converts the light's area pdf to solid angle).
+fn direction_sample_value(c: ShadingContext, d: DirectionSample, plan: SamplePlan, tri: u32, e: SurfaceHit) -> vec3f {
     let le = emitted_radiance(e);
     if all(le == vec3f(0.0)) {
-        return r;
-    }
-    r.g = f * le * wi.z;
-    r.g_glossy = lobes.glossy * le * wi.z;
-    if HAS_AREA_LIGHTS && e.light != NO_LIGHT && frame.light_count > 0u {
-        r.p_light = area_light_pdf(e.light, c.s.p, tri_verts[hit.tri], e.p);
-    }
-    return r;
-}
-
-// Radiance arriving along a direction sampled with density `pdf`, over that density; with
-// MIS, weighted against the light strategy's pdf for the same direction.
-fn direction_sample_contribution(c: ShadingContext, wi_world: vec3f, pdf: f32, n_samples: f32, use_mis: bool, rays: ptr<function, u32>) -> vec3f {
-    if pdf <= 0.0 {
         return vec3f(0.0);
     }
-    let d = trace_direction(c, wi_world, rays);
     var w = 1.0;
-    if use_mis && d.p_light > 0.0 && frame.light_samples > 0u {
-        w = mis_weight(n_samples, pdf, f32(frame.light_samples), d.p_light);
-    }
-    return w * d.g / pdf;
-}
-
-// A sample of a delta (mirror) lobe: no other strategy can produce its direction, so its MIS
-// weight is 1; its value is the lobe's reflectance over the probability of choosing the lobe.
-fn delta_sample_contribution(c: ShadingContext, bs: BsdfSample, rays: ptr<function, u32>) -> vec3f {
-    let wi_world = frame_to_world(c.frame, bs.wi);
-    if bs.pdf <= 0.0 || dot(wi_world, c.s.ng) <= 0.0 {
-        return vec3f(0.0);
-    }
-    *rays += 1u;
-    let hit = trace_closest(offset_ray_origin(c.s.p, c.s.ng, wi_world), wi_world, RAY_INF);
-    if !hit.found {
-        return vec3f(0.0);
-    }
-    return bs.delta_reflectance / bs.pdf * emitted_radiance(surface_at(hit, wi_world));
-}
-
-fn estimate_brdf_sampling(c: ShadingContext, use_mis: bool, rng: ptr<function, u32>, rays: ptr<function, u32>) -> vec3f {
-    if frame.brdf_samples == 0u {
-        return vec3f(0.0);
-    }
-    let n = f32(frame.brdf_samples);
-    var sum = vec3f(0.0);
-    for (var k = 0u; k < frame.brdf_samples; k++) {
-        let u = vec3f(rng_next(rng), rng_next2(rng));
-        let bs = bsdf_sample(c.bsdf, c.wo, u);
-        if HAS_MIRRORS && bs.delta {
-            sum += delta_sample_contribution(c, bs, rays);
-        } else {
-            sum += direction_sample_contribution(c, frame_to_world(c.frame, bs.wi), bs.pdf, n, use_mis, rays);
+    if d.mis && HAS_AREA_LIGHTS && e.light != NO_LIGHT && frame.light_count > 0u && plan.n > 0u {
+        let p_light = area_light_pdf(e.light, c.s.p, tri_verts[tri], e.p);
+        if p_light > 0.0 {
+            w = mis_weight(f32(plan.m), d.pdf, f32(plan.n), p_light);
         }
     }
-    return sum / n;
+    return w * d.throughput * le;
 }
 
-// Uniform hemisphere sampling around the shading normal; brdf_samples directions.
-fn estimate_uniform_sampling(c: ShadingContext, rng: ptr<function, u32>, rays: ptr<function, u32>) -> vec3f {
-    if frame.brdf_samples == 0u {
-        return vec3f(0.0);
+// ---------------------------------------------------------------------------------------------
+// mis-lobes: which samples a point gets.
+
+// mis-lobes looks at the lights one by one up to this many; past it every glossy lobe keeps its
+// own samples (the choice below costs a loop over the lights per shading point).
+const MAX_ALLOCATION_LIGHTS: u32 = 16u;
+
+// Would samples of the glossy lobe find some area light with a higher density than light
+// sampling does? Per area light, the lobe's density in the light's direction nearest to the lobe
+// (the mirror direction, or the edge of the light's bounding cone nearest to it) is compared with
+// the light strategy's density on that light, about P(light) / Ω with Ω the bounding cone's solid
+// angle, each times its sample count (the balance heuristic's n p). Where no light passes, the lobe
+// samples would get little weight (a sharp lobe next to a small light, Veach's small lights over
+// every plate) and mis-lobes spends them as light samples. The answer depends on the point alone,
+// fixed before sampling, so the estimator stays unbiased whatever it says (Veach & Guibas 1995,
+// eq. 8); only its variance depends on choosing well.
+fn glossy_lobe_outsamples_lights(c: ShadingContext) -> bool {
+    if !HAS_AREA_LIGHTS || c.bsdf.delta || frame.light_count > MAX_ALLOCATION_LIGHTS {
+        return true;
     }
-    let n = f32(frame.brdf_samples);
-    var sum = vec3f(0.0);
-    for (var k = 0u; k < frame.brdf_samples; k++) {
-        let wi = sample_uniform_hemisphere(rng_next2(rng));
-        sum += direction_sample_contribution(c, frame_to_world(c.frame, wi), uniform_hemisphere_pdf(), n, false, rays);
+    let axis = frame_to_world(c.frame, vec3f(-c.wo.x, -c.wo.y, c.wo.z));
+    let n_light = f32(frame.light_samples);
+    let m_lobe = f32(frame.brdf_samples);
+    for (var li = 0u; li < frame.light_count; li++) {
+        let light = lights[li];
+        if light.kind != LIGHT_AREA {
+            continue;
+        }
+        let d = light.position - c.s.p;
+        let dist = length(d);
+        if dist <= light.bound_radius {
+            return true;
+        }
+        let to_centre = d / dist;
+        let sin_t = light.bound_radius / dist;
+        let cos_t = sqrt(max(0.0, 1.0 - sin_t * sin_t));
+        // Solid angle of the cone, 2π(1 − cos θ) written without the cancellation.
+        let omega = 2.0 * PI * sin_t * sin_t / (1.0 + cos_t);
+        var nearest = axis;
+        let cos_phi = dot(axis, to_centre);
+        if cos_phi < cos_t {
+            let perp = axis - cos_phi * to_centre;
+            let len = length(perp);
+            nearest = select(to_centre, cos_t * to_centre + (sin_t / len) * perp, len > 0.0);
+        }
+        let wi = frame_to_local(c.frame, nearest);
+        let p_lobe = select(0.0, ggx_vndf_pdf(c.wo, wi, c.bsdf.alpha), wi.z > 0.0);
+        let p_light = light_selection_pdf(li) / max(omega, 1.0e-30);
+        if m_lobe * p_lobe > n_light * p_light {
+            return true;
+        }
     }
-    return sum / n;
+    return false;
 }
 
-const DEFENSIVE_SHARE: f32 = 0.1;
+// MIS per lobe (mis-lobes): the diffuse lobe is estimated by light sampling alone, the glossy
+// lobe by MIS between light sampling and sampling that lobe itself. Veach's multi-sample model
+// (Veach & Guibas 1995, eq. 8; thesis §9.2) lets the counts differ from point to point as long as
+// they are fixed before sampling: at a point without a glossy lobe the m BRDF samples become
+// light samples (a diffuse lobe's BRDF samples rarely find a small light, and the balance
+// heuristic would give them little weight); at a point with one, n light samples serve both lobes
+// and m samples go to the glossy lobe, weighted against light sampling with the counts, unless
+// glossy_lobe_outsamples_lights finds no light they would sample better: then they become light
+// samples too. A mirror lobe's one direction needs one sample.
+fn lobe_mis_plan(c: ShadingContext) -> SamplePlan {
+    // The host refuses light_samples = 0 for this strategy (the diffuse lobe needs them).
+    if frame.light_count == 0u {
+        return SamplePlan(0u, LIGHT_LOBE_MIS, 0u);
+    }
+    let lobe_sampled = has_glossy_lobe(c.bsdf) && glossy_lobe_outsamples_lights(c);
+    if !lobe_sampled {
+        return SamplePlan(frame.light_samples + frame.brdf_samples, LIGHT_LOBE_MIS, 0u);
+    }
+    let m = select(frame.brdf_samples, min(frame.brdf_samples, 1u), c.bsdf.delta);
+    return SamplePlan(frame.light_samples, LIGHT_LOBE_MIS, m);
+}
+
+fn sample_plan(c: ShadingContext) -> SamplePlan {
+    switch active_strategy() {
+        case STRATEGY_UNIFORM, STRATEGY_BRDF: {
+            return SamplePlan(0u, LIGHT_ALONE, frame.brdf_samples);
+        }
+        case STRATEGY_LIGHT: {
+            return SamplePlan(frame.light_samples, LIGHT_ALONE, 0u);
+        }
+        case STRATEGY_MIS_LOBES: {
+            return lobe_mis_plan(c);
+        }
+        default: {
+            return SamplePlan(frame.light_samples, LIGHT_MIS, frame.brdf_samples);
+        }
+    }
+}
+
+// ---------------------------------------------------------------------------------------------
+// One camera sample.
 
 // The parts of one camera sample's estimate: emission seen directly, light-sample and
 // direction-sample (BRDF or uniform) contributions, MIS-weighted where the strategy is MIS.
@@ -289,115 +389,52 @@ struct Estimate {
     brdf: vec3f,
 }
 
-// MIS per lobe (mis-lobes): the diffuse lobe is estimated by light sampling alone, the glossy
-// lobe by MIS between light sampling and sampling that lobe itself. Veach's multi-sample model
-// (Veach & Guibas 1995, eq. 8; thesis §9.2) lets the counts differ from point to point as long as
-// they are fixed before sampling: at a point without a glossy lobe the m BRDF samples become
-// light samples (a diffuse lobe's BRDF samples rarely find a small light, and the balance
-// heuristic would give them little weight); at a point with one, n light samples serve both lobes
-// and m samples go to the glossy lobe, weighted against light sampling with the counts.
-fn estimate_lobe_mis(c: ShadingContext, rng: ptr<function, u32>, rays: ptr<function, u32>) -> Estimate {
-    let glossy = has_glossy_lobe(c.bsdf);
-    let n = select(frame.light_samples + frame.brdf_samples, frame.light_samples, glossy);
-    // A mirror lobe's one direction needs one sample.
-    let m = select(0u, select(frame.brdf_samples, min(frame.brdf_samples, 1u), c.bsdf.delta), glossy);
-    // The host refuses light_samples = 0 for this strategy (the diffuse lobe needs them).
-    if n == 0u || frame.light_count == 0u {
-        return Estimate(vec3f(0.0), vec3f(0.0), vec3f(0.0));
-    }
-    var light = vec3f(0.0);
-    if frame.light_selection == SELECT_EACH {
-        for (var li = 0u; li < frame.light_count; li++) {
-            for (var k = 0u; k < n; k++) {
-                light += lobe_light_sample(c, li, 1.0, n, m, rng, rays);
-            }
-        }
-    } else {
-        for (var k = 0u; k < n; k++) {
-            let li = select_light(rng_next(rng));
-            light += lobe_light_sample(c, li, light_selection_pdf(li), n, m, rng, rays);
-        }
-    }
-    var brdf = vec3f(0.0);
-    for (var k = 0u; k < m; k++) {
-        brdf += glossy_lobe_sample(c, n, m, rng, rays);
-    }
-    return Estimate(vec3f(0.0), light / f32(n), select(vec3f(0.0), brdf / f32(m), m > 0u));
-}
-
-// A light sample of mis-lobes: the diffuse lobe's part with weight 1 (no other technique
-// samples it), the glossy lobe's weighted against glossy-lobe sampling; a delta light weight 1.
-fn lobe_light_sample(c: ShadingContext, index: u32, p_select: f32, n: u32, m: u32, rng: ptr<function, u32>, rays: ptr<function, u32>) -> vec3f {
-    let s = trace_light_sample(c, index, p_select, rng, rays);
-    if all(s.g == vec3f(0.0)) {
-        return vec3f(0.0);
-    }
-    if s.is_delta || m == 0u {
-        return s.g / s.p_light;
-    }
-    let w = mis_weight(f32(n), s.p_light, f32(m), s.p_glossy);
-    return (s.g - s.g_glossy + w * s.g_glossy) / s.p_light;
-}
-
-// A sample of the glossy lobe alone (GGX visible normals, or the mirror direction), weighted
-// against light sampling. The mirror's direction no light sample reaches: weight 1, and its
-// value is the lobe's reflectance times the radiance found.
-fn glossy_lobe_sample(c: ShadingContext, n: u32, m: u32, rng: ptr<function, u32>, rays: ptr<function, u32>) -> vec3f {
-    let u = rng_next2(rng);
-    if HAS_MIRRORS && c.bsdf.delta {
-        let wi_world = frame_to_world(c.frame, vec3f(-c.wo.x, -c.wo.y, c.wo.z));
-        if dot(wi_world, c.s.ng) <= 0.0 {
-            return vec3f(0.0);
-        }
-        *rays += 1u;
-        let hit = trace_closest(offset_ray_origin(c.s.p, c.s.ng, wi_world), wi_world, RAY_INF);
-        if !hit.found {
-            return vec3f(0.0);
-        }
-        return mirror_reflectance(c.bsdf, c.wo.z) * emitted_radiance(surface_at(hit, wi_world));
-    }
-    let wi = reflect(-c.wo, sample_ggx_vndf(c.wo, c.bsdf.alpha, u));
-    let pdf = ggx_vndf_pdf(c.wo, wi, c.bsdf.alpha);
-    if wi.z <= 0.0 || pdf <= 0.0 {
-        return vec3f(0.0);
-    }
-    let d = trace_direction(c, frame_to_world(c.frame, wi), rays);
-    let w = select(1.0, mis_weight(f32(m), pdf, f32(n), d.p_light), d.p_light > 0.0);
-    return w * d.g_glossy / pdf;
-}
-
+// The camera ray, then the strategy's light samples and direction samples at the surface it hits.
+// Each pass of the loop traces one closest-hit ray, the camera's first and then each direction
+// sample's, so the kernel inlines the closest-hit traversal (and surface_at) once: on lavapipe a
+// second call site, even one never reached, made the mis-lobes kernel 6-10% slower
+// (docs/performance.md).
 fn estimate_radiance(ray: Ray, rng: ptr<function, u32>, rays: ptr<function, u32>) -> Estimate {
     var e = Estimate(vec3f(0.0), vec3f(0.0), vec3f(0.0));
-    *rays += 1u;
-    let hit = trace_closest(ray.origin, ray.dir, RAY_INF);
-    if !hit.found {
-        return e;
+    var c: ShadingContext;
+    var plan = SamplePlan(0u, LIGHT_ALONE, 0u);
+    var origin = ray.origin;
+    var d = DirectionSample(ray.dir, 1.0, vec3f(1.0), false, true);
+    var at_camera = true;
+    var taken = 0u;
+    loop {
+        *rays += 1u;
+        let hit = trace_closest(origin, d.wi, RAY_INF);
+        if hit.found {
+            let s = surface_at(hit, d.wi);
+            if at_camera {
+                let f = frame_from_normal(s.ns);
+                c = ShadingContext(s, f, frame_to_local(f, -ray.dir), bsdf_params(textured_material(materials[s.material], s.uvs)));
+                if frame.hide_emitters == 0u {
+                    e.emitted = emitted_radiance(s);
+                }
+                plan = sample_plan(c);
+                e.light = estimate_light_samples(c, plan, rng, rays);
+            } else {
+                e.brdf += direction_sample_value(c, d, plan, hit.tri, s);
+            }
+        } else if at_camera {
+            return e;
+        }
+        at_camera = false;
+        // The next direction sample that needs a ray.
+        d.valid = false;
+        while !d.valid && taken < plan.m {
+            d = sample_direction(c, rng);
+            taken += 1u;
+        }
+        if !d.valid {
+            break;
+        }
+        origin = offset_ray_origin(c.s.p, c.s.ng, d.wi);
     }
-    let s = surface_at(hit, ray.dir);
-    let f = frame_from_normal(s.ns);
-    let c = ShadingContext(s, f, frame_to_local(f, -ray.dir), bsdf_params(textured_material(materials[s.material], s.uvs)));
-    if frame.hide_emitters == 0u {
-        e.emitted = emitted_radiance(s);
-    }
-    switch active_strategy() {
-        case STRATEGY_UNIFORM: {
-            e.brdf = estimate_uniform_sampling(c, rng, rays);
-        }
-        case STRATEGY_BRDF: {
-            e.brdf = estimate_brdf_sampling(c, false, rng, rays);
-        }
-        case STRATEGY_LIGHT: {
-            e.light = estimate_light_sampling(c, false, rng, rays);
-        }
-        case STRATEGY_MIS_LOBES: {
-            let parts = estimate_lobe_mis(c, rng, rays);
-            e.light = parts.light;
-            e.brdf = parts.brdf;
-        }
-        default: {
-            e.light = estimate_light_sampling(c, true, rng, rays);
-            e.brdf = estimate_brdf_sampling(c, true, rng, rays);
-        }
+    if plan.m > 0u {
+        e.brdf /= f32(plan.m);
     }
     return e;
 }

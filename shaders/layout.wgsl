@@ -145,7 +145,9 @@ struct TriangleUvs {
 
 // One light. Area lights own emitter triangles [first_tri, first_tri + tri_count).
 // `intensity` is radiance (area), radiant intensity in W/sr (point, spot) or irradiance in
-// W/m^2 (directional). `direction` is where spot and directional light travels.
+// W/m^2 (directional). `direction` is where spot and directional light travels. `position` is
+// the point or spot light's position, and an area light's bounding-sphere centre (radius
+// `bound_radius`).
 struct Light {
     kind: u32,
     first_tri: u32,
@@ -157,6 +159,10 @@ struct Light {
     cos_inner: f32,
     intensity: vec3f,
     cos_outer: f32,
+    bound_radius: f32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // A triangle of an area light. `cdf` is the light's area CDF at the end of this triangle.

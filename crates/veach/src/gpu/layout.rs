@@ -162,6 +162,10 @@ pub struct Light {
     pub cos_inner: f32,
     pub intensity: [f32; 3],
     pub cos_outer: f32,
+    pub bound_radius: f32,
+    pub _pad0: u32,
+    pub _pad1: u32,
+    pub _pad2: u32,
 }
 
 #[repr(C)]
@@ -261,7 +265,11 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             direction,
             cos_inner,
             intensity,
-            cos_outer
+            cos_outer,
+            bound_radius,
+            _pad0,
+            _pad1,
+            _pad2
         }),
         layout!(EmitterTriangle { p0, cdf, e1, area, e2, light }),
         layout!(TestParams { routine, count, seed, light_index, wo, point, material }),

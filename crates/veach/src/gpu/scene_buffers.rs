@@ -97,6 +97,18 @@ pub fn light_powers(scene: &Scene) -> Vec<f32> {
         .collect()
 }
 
+/// A sphere around `points`: the centre of their bounding box, the farthest point's distance
+/// (not the smallest sphere, but within a factor sqrt(3) of it), grown by a relative 1e-5 so that
+/// rounding never leaves a point outside.
+fn bounding_sphere(points: impl Iterator<Item = Vec3> + Clone) -> (Vec3, f32) {
+    let (lo, hi) = points
+        .clone()
+        .fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), p| (lo.min(p), hi.max(p)));
+    let centre = 0.5 * (lo + hi);
+    let radius = points.map(|p| p.distance(centre)).fold(0.0f32, f32::max);
+    (centre, radius * (1.0 + 1e-5) + 1e-5 * centre.abs().max_element())
+}
+
 pub fn build_scene_arrays(scene: &Scene, bvh: &Bvh) -> SceneArrays {
     let mut triangle_light = vec![NO_LIGHT; scene.triangles.len()];
     let mut lights = Vec::with_capacity(scene.lights.len());
@@ -114,6 +126,9 @@ pub fn build_scene_arrays(scene: &Scene, bvh: &Bvh) -> SceneArrays {
                 g.intensity = radiance.to_array();
                 let total: f64 = triangles.iter().map(|&t| scene.triangles[t as usize].area() as f64).sum();
                 g.area = total as f32;
+                let (centre, radius) = bounding_sphere(triangles.iter().flat_map(|&t| scene.triangles[t as usize].p));
+                g.position = centre.to_array();
+                g.bound_radius = radius;
                 let mut running = 0.0f64;
                 for (k, &t) in triangles.iter().enumerate() {
                     let tri = &scene.triangles[t as usize];
