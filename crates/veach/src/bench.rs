@@ -213,9 +213,16 @@ pub struct BenchRow {
     pub max_value: f32,
     /// Non-finite samples the kernel dropped.
     pub nonfinite: u64,
+    /// Rays the kernel traced: camera, shadow and BRDF (or uniform) rays.
+    pub rays: u64,
 }
 
 impl BenchRow {
+    /// Rays traced per second of render time.
+    pub fn rays_per_second(&self) -> f64 {
+        if self.seconds > 0.0 { self.rays as f64 / self.seconds } else { 0.0 }
+    }
+
     /// 1 / (relMSE × seconds): higher is better; constant for a finite-variance estimator.
     pub fn efficiency(&self) -> f64 {
         1.0 / (self.metrics.relmse * self.seconds).max(f64::MIN_POSITIVE)
@@ -284,6 +291,7 @@ pub fn measure(
         seed,
         max_value: out.mean().iter().flatten().fold(0.0f32, |m, &v| m.max(v)),
         nonfinite: out.nonfinite_samples,
+        rays: out.rays,
     };
     Ok((row, out))
 }

@@ -100,6 +100,8 @@ pub struct RegionResult {
     /// Strategy with the lowest median relMSE, and that median.
     pub best: String,
     pub best_relmse: f64,
+    /// The same among the single strategies (every one not named "mis…"), if any was run.
+    pub best_single: Option<(String, f64)>,
     pub worst: String,
     /// For each MIS strategy (name starting with "mis"), in the configured order.
     pub mis: Vec<MisRegion>,
@@ -113,6 +115,8 @@ pub struct MisRegion {
     /// Its mean over seeds exceeds the best one's by at most two standard errors of the
     /// difference (or it is the best).
     pub within_noise: bool,
+    /// The same against the best single strategy (None where no single strategy was run).
+    pub vs_single: Option<(f64, bool)>,
 }
 
 /// A set of pixels the per-region comparison measures separately.
@@ -212,20 +216,34 @@ fn region_table(strategies: &[BenchStrategy], regions: &[Region], errors: &[Vec<
             })
             .collect();
         let best = (0..stats.len()).min_by(|&a, &b| stats[a].0.total_cmp(&stats[b].0)).unwrap_or(0);
+        let best_single =
+            (0..stats.len()).filter(|i| !mis.contains(i)).min_by(|&a, &b| stats[a].0.total_cmp(&stats[b].0));
         let worst = (0..stats.len()).max_by(|&a, &b| stats[a].0.total_cmp(&stats[b].0)).unwrap_or(0);
+        // Median of m over b's, and Welch's comparison of the two means over seeds at two
+        // standard errors: m is within noise of b unless its mean is larger by more than that.
+        let compare = |m: usize, b: usize| {
+            (
+                stats[m].0 / stats[b].0.max(f64::MIN_POSITIVE),
+                stats[m].1 - stats[b].1 <= 2.0 * (stats[m].2 + stats[b].2).sqrt(),
+            )
+        };
         let mis = mis
             .iter()
-            .map(|&m| MisRegion {
-                strategy: strategies[m].name.clone(),
-                ratio: stats[m].0 / stats[best].0.max(f64::MIN_POSITIVE),
-                // Welch's comparison of the two means over seeds, at two standard errors.
-                within_noise: stats[m].1 - stats[best].1 <= 2.0 * (stats[m].2 + stats[best].2).sqrt(),
+            .map(|&m| {
+                let (ratio, within_noise) = compare(m, best);
+                MisRegion {
+                    strategy: strategies[m].name.clone(),
+                    ratio,
+                    within_noise,
+                    vs_single: best_single.map(|b| compare(m, b)),
+                }
             })
             .collect();
         out.push(RegionResult {
             label: regions[region].label.clone(),
             best: strategies[best].name.clone(),
             best_relmse: stats[best].0,
+            best_single: best_single.map(|b| (strategies[b].name.clone(), stats[b].0)),
             worst: strategies[worst].name.clone(),
             mis,
         });
@@ -237,7 +255,7 @@ fn region_table(strategies: &[BenchStrategy], regions: &[Region], errors: &[Vec<
 pub type BenchProgress<'a> = &'a mut dyn FnMut(u64, u64, &str);
 
 pub fn bench_units(config: &BenchConfig) -> u64 {
-    (config.strategies.len() * (config.budgets.len() * config.seeds as usize + 1) + 2) as u64
+    (config.strategies.len() * (config.budgets.len() + 1) * config.seeds as usize + 2) as u64
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -297,11 +315,14 @@ pub fn bench_scene(
     };
     done += 1;
 
-    // The sweep.
+    // The sweep. Strategies take turns within each budget and seed, so that a slow spell of the
+    // machine (lavapipe shares the CPU with everything else) falls on all of them alike rather
+    // than on one strategy's renders: run one after the other, two identical kernels reached 8%
+    // different sample counts at equal time.
     let mut rows = Vec::new();
-    for s in &config.strategies {
-        for budget in &config.budgets {
-            for seed in 1..=config.seeds {
+    for budget in &config.budgets {
+        for seed in 1..=config.seeds {
+            for s in &config.strategies {
                 progress(done, units_total, &format!("{name}: {} {budget:?} seed {seed}", s.name));
                 let (row, _) = measure(renderer, scene, camera, &name, &reference, s, budget, seed, w, h)?;
                 rows.push(row);
@@ -327,25 +348,24 @@ pub fn bench_scene(
     let mut images = Vec::new();
     let grid = grid_regions(w, h);
     let by_material = material_regions(host_scene, camera, w, h);
-    let mut region_errors: Vec<Vec<Vec<f64>>> = Vec::new(); // [strategy][seed][region]
-    let mut material_errors: Vec<Vec<Vec<f64>>> = Vec::new();
-    for s in &config.strategies {
-        progress(done, units_total, &format!("{name}: {} at {equal_time_seconds:.3} s", s.name));
-        let budget = Budget::Seconds(equal_time_seconds);
-        let (mut per_seed, mut per_seed_material) = (Vec::new(), Vec::new());
-        for seed in 1..=config.seeds {
+    // [strategy][seed][region]
+    let mut region_errors: Vec<Vec<Vec<f64>>> = vec![Vec::new(); config.strategies.len()];
+    let mut material_errors: Vec<Vec<Vec<f64>>> = vec![Vec::new(); config.strategies.len()];
+    let budget = Budget::Seconds(equal_time_seconds);
+    // Strategies take turns here too (see the sweep).
+    for seed in 1..=config.seeds {
+        for (i, s) in config.strategies.iter().enumerate() {
+            progress(done, units_total, &format!("{name}: {} at {equal_time_seconds:.3} s, seed {seed}", s.name));
             let (row, out) = measure(renderer, scene, camera, &name, &reference, s, &budget, 1000 + seed, w, h)?;
             let mean = out.mean();
-            per_seed.push(region_relmse(&mean, &reference.pixels, &grid));
-            per_seed_material.push(region_relmse(&mean, &reference.pixels, &by_material));
+            region_errors[i].push(region_relmse(&mean, &reference.pixels, &grid));
+            material_errors[i].push(region_relmse(&mean, &reference.pixels, &by_material));
             if seed == 1 {
                 images.push((s.name.clone(), mean));
                 equal_time.push(row);
             }
+            done += 1;
         }
-        region_errors.push(per_seed);
-        material_errors.push(per_seed_material);
-        done += 1;
     }
     let regions = region_table(&config.strategies, &grid, &region_errors);
     let materials = region_table(&config.strategies, &by_material, &material_errors);
@@ -387,11 +407,13 @@ pub fn bench_scene(
 }
 
 pub fn csv(rows: &[BenchRow]) -> String {
-    let mut s = String::from("scene,strategy,budget,spp,seconds,rmse,relmse,mae,efficiency,seed,max_value,nonfinite\n");
+    let mut s = String::from(
+        "scene,strategy,budget,spp,seconds,rmse,relmse,mae,efficiency,seed,max_value,nonfinite,rays,rays_per_s\n",
+    );
     for r in rows {
         let _ = writeln!(
             s,
-            "{},{},{},{:.3},{:.6},{:.6e},{:.6e},{:.6e},{:.6e},{},{:.6e},{}",
+            "{},{},{},{:.3},{:.6},{:.6e},{:.6e},{:.6e},{:.6e},{},{:.6e},{},{},{:.0}",
             r.scene,
             r.strategy,
             r.budget,
@@ -403,7 +425,9 @@ pub fn csv(rows: &[BenchRow]) -> String {
             r.efficiency(),
             r.seed,
             r.max_value,
-            r.nonfinite
+            r.nonfinite,
+            r.rays,
+            r.rays_per_second()
         );
     }
     s
@@ -564,20 +588,21 @@ fn report_section(b: &SceneBench, config: &BenchConfig, plot: &Path, grid: &Path
         );
     }
     let _ = writeln!(s, "### Error at equal time ({:.3} s)\n", b.equal_time_seconds);
-    let _ = writeln!(s, "| strategy | spp reached | relMSE | RMSE | MAE | efficiency 1/(relMSE·s) |");
-    let _ = writeln!(s, "|---|---|---|---|---|---|");
+    let _ = writeln!(s, "| strategy | spp reached | relMSE | RMSE | MAE | efficiency 1/(relMSE·s) | Mrays/s |");
+    let _ = writeln!(s, "|---|---|---|---|---|---|---|");
     let best = b.equal_time.iter().map(|r| r.metrics.relmse).fold(f64::INFINITY, f64::min);
     for r in &b.equal_time {
         let mark = if r.metrics.relmse == best { " **(best)**" } else { "" };
         let _ = writeln!(
             s,
-            "| {}{mark} | {:.1} | {:.3e} | {:.3e} | {:.3e} | {:.3e} |",
+            "| {}{mark} | {:.1} | {:.3e} | {:.3e} | {:.3e} | {:.3e} | {:.2} |",
             r.strategy,
             r.spp,
             r.metrics.relmse,
             r.metrics.rmse,
             r.metrics.mae,
-            r.efficiency()
+            r.efficiency(),
+            r.rays_per_second() / 1e6
         );
     }
     let _ = writeln!(
@@ -620,8 +645,9 @@ fn report_section(b: &SceneBench, config: &BenchConfig, plot: &Path, grid: &Path
         "\n### By region, at equal time\n\nThe image cut into {g}×{g} regions; relMSE per region, median over \
          {} seeds (the best is the lowest median). A MIS strategy is *within noise* of the best where its \
          mean over the seeds exceeds the best one's by at most two standard errors of the difference \
-         (sqrt(s²_mis/k + s²_best/k), s² the variance over the k seeds); each MIS column gives its median \
-         over the best one's, marked **(no)** where it is not within noise.\n",
+         (sqrt(s²_mis/k + s²_best/k), s² the variance over the k seeds). *Single* strategies are those \
+         that are not MIS (uniform, brdf, light); each MIS column gives its median over the best single \
+         strategy's, marked **(no)** where it is not below it or within noise.\n",
         config.seeds,
         g = REGION_GRID
     );
@@ -682,22 +708,58 @@ pub fn slope_warnings(b: &SceneBench) -> Vec<String> {
         .collect()
 }
 
-/// A summary line per MIS strategy and a table of `regions` (best, worst, each MIS strategy's
-/// ratio to the best).
+/// Summary lines per MIS strategy and a table of `regions`: the best strategy, the best single
+/// one, the worst, and each MIS strategy's ratio to the best single strategy (to the best one
+/// where no single strategy was run).
 fn region_report(s: &mut String, what: &str, regions: &[RegionResult]) {
     let mis_names: Vec<&str> =
         regions.first().map(|r| r.mis.iter().map(|m| m.strategy.as_str()).collect()).unwrap_or_default();
+    let has_single = regions.first().is_some_and(|r| r.best_single.is_some());
     for name in &mis_names {
-        let within = regions.iter().filter(|r| r.mis.iter().any(|m| m.strategy == *name && m.within_noise)).count();
-        let _ = writeln!(s, "- {name}: best or within noise of the best on {within} of {}", regions.len());
+        let of = |r: &RegionResult| r.mis.iter().find(|m| m.strategy == *name).cloned();
+        let within = regions.iter().filter(|r| of(r).is_some_and(|m| m.within_noise)).count();
+        let within_single =
+            regions.iter().filter(|r| of(r).and_then(|m| m.vs_single).is_some_and(|(_, ok)| ok)).count();
+        if has_single {
+            let _ = writeln!(
+                s,
+                "- {name}: below or within noise of the best single strategy on **{within_single} of {n}**; \
+                 of the best strategy of all on {within} of {n}",
+                n = regions.len()
+            );
+        } else {
+            let _ = writeln!(s, "- {name}: best or within noise of the best on {within} of {}", regions.len());
+        }
     }
-    let mis_headers: Vec<String> = mis_names.iter().map(|n| format!("{n} / best")).collect();
-    let _ = writeln!(s, "\n| {what} | best | best relMSE | worst | {} |", mis_headers.join(" | "));
-    let _ = writeln!(s, "|---|---|---|---|{}", "---|".repeat(mis_names.len()));
+    let against = if has_single { "best single" } else { "best" };
+    let mis_headers: Vec<String> = mis_names.iter().map(|n| format!("{n} / {against}")).collect();
+    let _ = writeln!(
+        s,
+        "\n| {what} | best | best relMSE | best single | its relMSE | worst | {} |",
+        mis_headers.join(" | ")
+    );
+    let _ = writeln!(s, "|---|---|---|---|---|---|{}", "---|".repeat(mis_names.len()));
     for r in regions {
-        let cells: Vec<String> =
-            r.mis.iter().map(|m| format!("{:.2}{}", m.ratio, if m.within_noise { "" } else { " **(no)**" })).collect();
-        let _ =
-            writeln!(s, "| {} | {} | {:.2e} | {} | {} |", r.label, r.best, r.best_relmse, r.worst, cells.join(" | "));
+        let cells: Vec<String> = r
+            .mis
+            .iter()
+            .map(|m| {
+                let (ratio, ok) = m.vs_single.unwrap_or((m.ratio, m.within_noise));
+                format!("{ratio:.2}{}", if ok { "" } else { " **(no)**" })
+            })
+            .collect();
+        let (single, single_relmse) = match &r.best_single {
+            Some((name, e)) => (name.as_str(), format!("{e:.2e}")),
+            None => ("–", "–".into()),
+        };
+        let _ = writeln!(
+            s,
+            "| {} | {} | {:.2e} | {single} | {single_relmse} | {} | {} |",
+            r.label,
+            r.best,
+            r.best_relmse,
+            r.worst,
+            cells.join(" | ")
+        );
     }
 }
