@@ -148,19 +148,22 @@ fn bench_writes_a_well_formed_report() {
     let mut lines = csv.lines();
     assert_eq!(
         lines.next().unwrap(),
-        "scene,strategy,budget,spp,seconds,rmse,relmse,mae,efficiency,seed,max_value,nonfinite"
+        "scene,strategy,budget,spp,seconds,rmse,relmse,mae,efficiency,seed,max_value,nonfinite,rays,rays_per_s"
     );
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
     // 6 strategies × budgets 1, 2, 4 × 2 seeds.
     assert_eq!(rows.len(), 6 * 3 * 2);
     for r in &rows {
-        assert_eq!(r.len(), 12, "{r:?}");
+        assert_eq!(r.len(), 14, "{r:?}");
         assert_eq!(r[0], "cornell-box");
-        for v in r[3..9].iter().chain(&r[10..12]) {
+        for v in r[3..9].iter().chain(&r[10..14]) {
             let x: f64 = v.parse().unwrap_or_else(|_| panic!("not a number: {v}"));
             assert!(x.is_finite() && x >= 0.0, "{r:?}");
         }
         assert!(r[4].parse::<f64>().unwrap() > 0.0, "zero render time: {r:?}");
+        // At least a camera ray per pixel and camera sample (16 × 16 pixels).
+        let spp: f64 = r[3].parse().unwrap();
+        assert!(r[12].parse::<f64>().unwrap() >= 256.0 * spp, "too few rays counted: {r:?}");
     }
     let strategies: std::collections::BTreeSet<&str> = rows.iter().map(|r| r[1]).collect();
     assert_eq!(
@@ -243,4 +246,61 @@ fn viewer_refuses_bad_input_before_opening_a_window() {
     assert!(!o.status.success() && stderr(&o).contains("PNG"), "{}", stderr(&o));
     let o = veach(&["view", &assets("cornell-box.gltf"), "--camera", "nope"]);
     assert!(!o.status.success() && stderr(&o).contains("nope"), "{}", stderr(&o));
+}
+
+/// Smoke test of `veach scale` at a tiny size: scale.csv is well formed, the generated scenes
+/// have the triangle and light counts asked for, and the light sweep keeps its geometry fixed.
+#[test]
+fn scale_writes_a_well_formed_csv() {
+    let dir = out_dir().join("scale");
+    let _ = std::fs::remove_dir_all(&dir);
+    let o = veach(&[
+        "scale",
+        "-o",
+        dir.to_str().unwrap(),
+        "--triangles",
+        "1000,4000",
+        "--lights",
+        "1,9",
+        "--light-grid",
+        "16",
+        "--width",
+        "16",
+        "--height",
+        "16",
+        "--spp",
+        "1",
+        "--repeats",
+        "1",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let csv = std::fs::read_to_string(dir.join("scale.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(
+        lines.next().unwrap(),
+        "sweep,triangles,lights,load_s,bvh_build_s,bvh_nodes,gpu_scene_bytes,bytes_per_triangle,\
+         bvh_bytes_per_triangle,render_s,spp,rays,rays_per_s"
+    );
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 4);
+    let num = |v: &str| -> f64 { v.parse().unwrap_or_else(|_| panic!("not a number: {v}")) };
+    for r in &rows {
+        assert_eq!(r.len(), 13, "{r:?}");
+        for v in &r[1..] {
+            assert!(num(v).is_finite() && num(v) >= 0.0, "{r:?}");
+        }
+        assert!(num(r[9]) > 0.0, "zero render time: {r:?}");
+        // A camera ray per pixel at least (16 × 16, 1 spp).
+        assert!(num(r[11]) >= 256.0, "too few rays: {r:?}");
+    }
+    // Triangle sweep: within 10% of the count asked for; one light (the Cornell box's).
+    for (r, wanted) in rows[..2].iter().zip([1000.0, 4000.0]) {
+        assert_eq!(r[0], "triangles");
+        assert!((num(r[1]) / wanted - 1.0).abs() < 0.1, "{r:?}");
+        assert_eq!(r[2], "1");
+    }
+    // Light sweep: the same 16 grid triangles + 2 floor triangles whatever the light count.
+    for (r, lights) in rows[2..].iter().zip(["1", "9"]) {
+        assert_eq!((r[0], r[1], r[2]), ("lights", "18", lights), "{r:?}");
+    }
 }

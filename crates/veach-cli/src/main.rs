@@ -28,6 +28,9 @@ enum Command {
     View(ViewArgs),
     /// Measure error against render time for every strategy (results.csv, plots, report.md).
     Bench(BenchArgs),
+    /// Measure how load, BVH build, GPU memory and render time grow with the triangle count,
+    /// and render time with the light count (generated scenes; scale.csv and a table).
+    Scale(ScaleArgs),
     /// Print what veach sees in a scene: counts, materials, lights, cameras.
     Info {
         /// glTF scene (.gltf or .glb)
@@ -55,6 +58,42 @@ enum Command {
         #[arg(long)]
         camera: Option<String>,
     },
+}
+
+#[derive(clap::Args)]
+#[command(after_long_help = "Triangle sweep: the Cornell box around a UV sphere tessellated to about N triangles. \
+Light sweep: a floor under a grid of --light-grid small triangles of which K emit (each its own light), with a \
+total power that does not depend on K: the geometry is the same for every K. \
+Every point is written as glTF to DIR/scenes, loaded back, built and uploaded, rendered once untimed (the \
+kernel's compile), then --repeats times with MIS 1 + 1, lights chosen by power; the median render time is \
+reported (GPU timestamps where the adapter has them, else wall clock). GPU bytes per triangle count every \
+buffer of the scene (BVH nodes, triangle positions and shading data, materials, lights).")]
+struct ScaleArgs {
+    /// Output directory (generated scenes and scale.csv)
+    #[arg(short, long, default_value = "scale-out")]
+    output: PathBuf,
+    /// Triangle counts to measure, comma-separated (0: skip this sweep)
+    #[arg(long, value_delimiter = ',', default_value = "1000,10000,100000,1000000")]
+    triangles: Vec<usize>,
+    /// Light counts to measure, comma-separated (0: skip this sweep)
+    #[arg(long, value_delimiter = ',', default_value = "1,10,100,1000,10000")]
+    lights: Vec<usize>,
+    /// Triangles in the light sweep's grid (raised to the largest light count)
+    #[arg(long, default_value_t = 10000)]
+    light_grid: usize,
+    #[arg(long, default_value_t = 256)]
+    width: u32,
+    #[arg(long, default_value_t = 256)]
+    height: u32,
+    /// Camera samples per pixel of each render
+    #[arg(long, default_value_t = 8)]
+    spp: u32,
+    /// Timed renders per point (the median is reported)
+    #[arg(long, default_value_t = 3)]
+    repeats: u32,
+    /// Use the adapter whose name contains this text (also VEACH_ADAPTER)
+    #[arg(long)]
+    adapter: Option<String>,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -304,6 +343,7 @@ fn main() {
         Command::Render(args) => render(args),
         Command::View(args) => view(args),
         Command::Bench(args) => bench(args),
+        Command::Scale(args) => scale(args),
         Command::Info { scene } => info(&scene),
         Command::Generate { name, output } => generate(&name, &output),
         Command::ExportMitsuba { scene, output, camera } => export_mitsuba(&scene, &output, camera.as_deref()),
@@ -587,6 +627,59 @@ fn render(args: RenderArgs) -> Result<()> {
             f.write_all(text.as_bytes()).map_err(|e| e.to_string())
         })?;
     }
+    Ok(())
+}
+
+fn scale(args: ScaleArgs) -> Result<()> {
+    use veach::scale::{ScaleConfig, run_scale, scale_csv, scale_report};
+    if args.width == 0 || args.height == 0 || args.spp == 0 || args.repeats == 0 {
+        bail!("--width, --height, --spp and --repeats must be at least 1");
+    }
+    let triangles: Vec<usize> = args.triangles.iter().copied().filter(|&n| n > 0).collect();
+    let lights: Vec<usize> = args.lights.iter().copied().filter(|&n| n > 0).collect();
+    if triangles.is_empty() && lights.is_empty() {
+        bail!("--triangles and --lights name no count to measure");
+    }
+    std::fs::create_dir_all(args.output.join("scenes"))
+        .with_context(|| format!("cannot create {}", args.output.join("scenes").display()))?;
+    let config = ScaleConfig {
+        output: args.output.clone(),
+        triangles,
+        lights,
+        light_grid: args.light_grid,
+        width: args.width,
+        height: args.height,
+        spp: args.spp,
+        repeats: args.repeats,
+    };
+    let gpu = GpuContext::new(args.adapter.as_deref())?;
+    eprintln!("adapter: {}", gpu.describe());
+    let renderer = Renderer::new(gpu)?;
+    let bar = ProgressBar::new((config.triangles.len() + config.lights.len()) as u64);
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} {msg}")
+            .expect("valid template"),
+    );
+    let mut started = false;
+    let rows = run_scale(&renderer, &config, &mut |what| {
+        if started {
+            bar.inc(1);
+        }
+        started = true;
+        bar.set_message(what.to_string());
+    })?;
+    bar.finish_and_clear();
+    let csv_path = args.output.join("scale.csv");
+    veach::image_io::write_atomically(&csv_path, |f| {
+        use std::io::Write;
+        f.write_all(scale_csv(&rows).as_bytes()).map_err(|e| e.to_string())
+    })?;
+    println!(
+        "{}x{}, {} spp, MIS 1 + 1, lights by power, median of {} renders\n",
+        config.width, config.height, config.spp, config.repeats
+    );
+    println!("{}", scale_report(&rows));
+    println!("wrote {}", csv_path.display());
     Ok(())
 }
 

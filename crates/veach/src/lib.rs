@@ -15,6 +15,7 @@ pub mod gpu;
 pub mod image_io;
 pub mod mitsuba;
 pub mod render;
+pub mod scale;
 pub mod scene;
 pub mod shaders;
 pub mod stats;

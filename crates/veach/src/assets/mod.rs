@@ -2,6 +2,7 @@
 //! small analytic scenes for tests.
 
 pub mod gltf_writer;
+pub mod scale;
 pub mod stress;
 
 use crate::scene::Wrap;

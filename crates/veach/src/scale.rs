@@ -1,0 +1,206 @@
+//! `veach scale`: how loading, BVH build, GPU memory and render time grow with the triangle
+//! count, and how render time grows with the light count under power-based light selection.
+//! A benchmark (it prints a table and writes CSV); the scenes come from `assets::scale`.
+
+use crate::assets::scale::{light_scene, triangle_scene};
+use crate::bench::render_seconds;
+use crate::error::{Error, Result};
+use crate::gpu::layout::BvhNode;
+use crate::render::{Heuristic, LightSelection, RenderSettings, Renderer, Strategy};
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::time::Instant;
+
+pub struct ScaleConfig {
+    /// Where the generated scenes and scale.csv go.
+    pub output: PathBuf,
+    pub triangles: Vec<usize>,
+    pub lights: Vec<usize>,
+    /// Triangles of the light sweep's grid (`assets::scale::light_scene`).
+    pub light_grid: usize,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    /// Renders per point; the median time is reported.
+    pub repeats: u32,
+}
+
+#[derive(Clone, Debug)]
+pub struct ScaleRow {
+    /// "triangles" or "lights": which sweep the row belongs to.
+    pub sweep: &'static str,
+    pub triangles: usize,
+    pub lights: usize,
+    pub load_seconds: f64,
+    pub bvh_build_seconds: f64,
+    pub bvh_nodes: usize,
+    /// Every buffer of the scene on the GPU (BVH, triangles, materials, lights).
+    pub gpu_scene_bytes: u64,
+    /// Median render time over the repeats (GPU timestamps where there are any).
+    pub render_seconds: f64,
+    pub spp: u32,
+    /// Rays traced by the kernel in one render: camera, shadow and BRDF rays.
+    pub rays: u64,
+}
+
+impl ScaleRow {
+    pub fn bytes_per_triangle(&self) -> f64 {
+        self.gpu_scene_bytes as f64 / self.triangles.max(1) as f64
+    }
+
+    pub fn bvh_bytes_per_triangle(&self) -> f64 {
+        (self.bvh_nodes * std::mem::size_of::<BvhNode>()) as f64 / self.triangles.max(1) as f64
+    }
+
+    pub fn rays_per_second(&self) -> f64 {
+        if self.render_seconds > 0.0 { self.rays as f64 / self.render_seconds } else { 0.0 }
+    }
+}
+
+/// The settings every point renders with: MIS, 1 light + 1 BRDF sample per camera sample, one
+/// light chosen by power per light sample (the bench's mis-power).
+pub fn scale_settings(config: &ScaleConfig) -> RenderSettings {
+    RenderSettings {
+        width: config.width,
+        height: config.height,
+        spp: config.spp,
+        strategy: Strategy::Mis,
+        light_samples: 1,
+        brdf_samples: 1,
+        heuristic: Heuristic::Power,
+        light_selection: LightSelection::Power,
+        ..Default::default()
+    }
+}
+
+/// Writes the scene, loads it back as a user's file would be, builds and uploads it, renders it
+/// `repeats` times after one untimed render (the kernel's compile).
+fn measure_point(
+    renderer: &Renderer,
+    config: &ScaleConfig,
+    sweep: &'static str,
+    name: &str,
+    builder: crate::assets::gltf_writer::GltfBuilder,
+) -> Result<ScaleRow> {
+    let path = config.output.join("scenes").join(format!("{name}.gltf"));
+    builder.write(&path)?;
+    let load_start = Instant::now();
+    let scene = crate::load_gltf(&path)?;
+    let load_seconds = load_start.elapsed().as_secs_f64();
+    let camera = scene.camera(None).map_err(|m| Error::scene(&path, m))?;
+    let gpu_scene = renderer.upload_scene(&scene)?;
+    let settings = scale_settings(config);
+    renderer.render(&gpu_scene, &RenderSettings { spp: 1, ..settings.clone() }, &camera, &mut |_| true)?;
+    let mut times = Vec::new();
+    let mut rays = 0;
+    for _ in 0..config.repeats.max(1) {
+        let out = renderer.render(&gpu_scene, &settings, &camera, &mut |_| true)?;
+        times.push(render_seconds(&out));
+        rays = out.rays;
+    }
+    times.sort_by(f64::total_cmp);
+    let stats = &gpu_scene.stats;
+    Ok(ScaleRow {
+        sweep,
+        triangles: scene.triangles.len(),
+        lights: scene.lights.len(),
+        load_seconds,
+        bvh_build_seconds: stats.bvh_build.as_secs_f64(),
+        bvh_nodes: stats.bvh_nodes,
+        gpu_scene_bytes: stats.gpu_scene_bytes,
+        render_seconds: times[times.len() / 2],
+        spp: settings.spp,
+        rays,
+    })
+}
+
+/// Both sweeps; `progress` hears what is being measured.
+pub fn run_scale(renderer: &Renderer, config: &ScaleConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<ScaleRow>> {
+    let mut rows = Vec::new();
+    for &n in &config.triangles {
+        progress(&format!("{n} triangles"));
+        rows.push(measure_point(renderer, config, "triangles", &format!("scale-triangles-{n}"), triangle_scene(n))?);
+    }
+    for &k in &config.lights {
+        progress(&format!("{k} lights"));
+        rows.push(measure_point(
+            renderer,
+            config,
+            "lights",
+            &format!("scale-lights-{k}"),
+            light_scene(k, config.light_grid),
+        )?);
+    }
+    Ok(rows)
+}
+
+pub fn scale_csv(rows: &[ScaleRow]) -> String {
+    let mut s = String::from(
+        "sweep,triangles,lights,load_s,bvh_build_s,bvh_nodes,gpu_scene_bytes,bytes_per_triangle,\
+         bvh_bytes_per_triangle,render_s,spp,rays,rays_per_s\n",
+    );
+    for r in rows {
+        let _ = writeln!(
+            s,
+            "{},{},{},{:.6},{:.6},{},{},{:.2},{:.2},{:.6},{},{},{:.0}",
+            r.sweep,
+            r.triangles,
+            r.lights,
+            r.load_seconds,
+            r.bvh_build_seconds,
+            r.bvh_nodes,
+            r.gpu_scene_bytes,
+            r.bytes_per_triangle(),
+            r.bvh_bytes_per_triangle(),
+            r.render_seconds,
+            r.spp,
+            r.rays,
+            r.rays_per_second()
+        );
+    }
+    s
+}
+
+/// Markdown tables of both sweeps, each render time also relative to the sweep's first point.
+pub fn scale_report(rows: &[ScaleRow]) -> String {
+    let mut s = String::new();
+    let tri: Vec<&ScaleRow> = rows.iter().filter(|r| r.sweep == "triangles").collect();
+    if let Some(first) = tri.first() {
+        let _ = writeln!(
+            s,
+            "| triangles | load s | BVH build s | GPU bytes / triangle (BVH) | render s | × first | Mrays/s |"
+        );
+        let _ = writeln!(s, "|---|---|---|---|---|---|---|");
+        for r in &tri {
+            let _ = writeln!(
+                s,
+                "| {} | {:.3} | {:.3} | {:.0} ({:.0}) | {:.3} | {:.2} | {:.2} |",
+                r.triangles,
+                r.load_seconds,
+                r.bvh_build_seconds,
+                r.bytes_per_triangle(),
+                r.bvh_bytes_per_triangle(),
+                r.render_seconds,
+                r.render_seconds / first.render_seconds.max(f64::MIN_POSITIVE),
+                r.rays_per_second() / 1e6
+            );
+        }
+    }
+    let lights: Vec<&ScaleRow> = rows.iter().filter(|r| r.sweep == "lights").collect();
+    if let Some(first) = lights.first() {
+        let _ = writeln!(s, "\n| lights | triangles | render s | × first | Mrays/s |");
+        let _ = writeln!(s, "|---|---|---|---|---|");
+        for r in &lights {
+            let _ = writeln!(
+                s,
+                "| {} | {} | {:.3} | {:.2} | {:.2} |",
+                r.lights,
+                r.triangles,
+                r.render_seconds,
+                r.render_seconds / first.render_seconds.max(f64::MIN_POSITIVE),
+                r.rays_per_second() / 1e6
+            );
+        }
+    }
+    s
+}
