@@ -307,16 +307,26 @@ fn glossy_lobe_outsamples_lights(c: ShadingContext) -> bool {
     let axis = frame_to_world(c.frame, vec3f(-c.wo.x, -c.wo.y, c.wo.z));
     let n_light = f32(frame.light_samples);
     let m_lobe = f32(frame.brdf_samples);
+    // The lobe's highest density, at the mirror direction (D peaks at h = n, 1 / (π α²)), times
+    // the count: a light fails the test below wherever m p_peak Ω_max <= n P(light), with
+    // Ω_max = 2π r² / dist² >= Ω, which needs no square root (most lights, on rough lobes).
+    let m_peak = m_lobe * smith_g1(c.wo.z, c.bsdf.alpha) / (4.0 * c.wo.z * PI * c.bsdf.alpha * c.bsdf.alpha);
     for (var li = 0u; li < frame.light_count; li++) {
         let light = lights[li];
         if light.kind != LIGHT_AREA {
             continue;
         }
         let d = light.position - c.s.p;
-        let dist = length(d);
-        if dist <= light.bound_radius {
+        let dist_sq = dot(d, d);
+        let r_sq = light.bound_radius * light.bound_radius;
+        if dist_sq <= r_sq {
             return true;
         }
+        // Below the horizon, or too small for the lobe even at its peak.
+        if dot(d, c.s.ns) <= -light.bound_radius || m_peak * 2.0 * PI * r_sq <= n_light * light_selection_pdf(li) * dist_sq {
+            continue;
+        }
+        let dist = sqrt(dist_sq);
         let to_centre = d / dist;
         let sin_t = light.bound_radius / dist;
         let cos_t = sqrt(max(0.0, 1.0 - sin_t * sin_t));
@@ -400,11 +410,12 @@ fn estimate_radiance(ray: Ray, rng: ptr<function, u32>, rays: ptr<function, u32>
     var plan = SamplePlan(0u, LIGHT_ALONE, 0u);
     var origin = ray.origin;
     var d = DirectionSample(ray.dir, 1.0, vec3f(1.0), false, true);
+    var t_max = RAY_INF;
     var at_camera = true;
     var taken = 0u;
     loop {
         *rays += 1u;
-        let hit = trace_closest(origin, d.wi, RAY_INF);
+        let hit = trace_closest(origin, d.wi, t_max);
         if hit.found {
             let s = surface_at(hit, d.wi);
             if at_camera {
@@ -422,16 +433,21 @@ fn estimate_radiance(ray: Ray, rng: ptr<function, u32>, rays: ptr<function, u32>
             return e;
         }
         at_camera = false;
-        // The next direction sample that needs a ray.
+        // The next direction sample that needs a ray: one that adds something where it finds a
+        // light, and crosses some light's bounding sphere (traced only as far as that).
         d.valid = false;
         while !d.valid && taken < plan.m {
             d = sample_direction(c, rng);
             taken += 1u;
+            if d.valid {
+                origin = offset_ray_origin(c.s.p, c.s.ng, d.wi);
+                t_max = emitter_reach(origin, d.wi);
+                d.valid = t_max > 0.0;
+            }
         }
         if !d.valid {
             break;
         }
-        origin = offset_ray_origin(c.s.p, c.s.ng, d.wi);
     }
     if plan.m > 0u {
         e.brdf /= f32(plan.m);

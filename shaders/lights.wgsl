@@ -200,3 +200,40 @@ fn area_light_direction_pdf(index: u32, x: vec3f, v: TriangleVerts, y: vec3f) ->
     let cos_l = dot(normalize(n), normalize(d));
     return area_to_solid_angle_pdf(dot(d, d), cos_l, lights[index].area);
 }
+
+// emitter_reach looks at the lights one by one up to this many; past it rays are not clipped.
+const MAX_REACH_LIGHTS: u32 = 16u;
+
+// How far along origin + t dir (dir of unit length) a direction sample can find emitted radiance:
+// the farthest exit from the bounding spheres of the area lights the ray crosses, 0 when it
+// crosses none. Emission comes from area lights only and every triangle of a light lies in its
+// sphere, so a closest-hit ray clipped there finds the same emitter as an unclipped one, or
+// nothing where the unclipped one would have found a surface that emits nothing: the estimate is
+// unchanged, and a ray that crosses no light's sphere is not traced at all.
+fn emitter_reach(origin: vec3f, dir: vec3f) -> f32 {
+    if !HAS_AREA_LIGHTS {
+        return 0.0;
+    }
+    if frame.light_count > MAX_REACH_LIGHTS {
+        return RAY_INF;
+    }
+    var reach = 0.0;
+    for (var li = 0u; li < frame.light_count; li++) {
+        let light = lights[li];
+        if light.kind != LIGHT_AREA {
+            continue;
+        }
+        let to_centre = light.position - origin;
+        let b = dot(to_centre, dir);
+        // Squared distance from the centre to the ray's line from the perpendicular itself, not
+        // as |to_centre|^2 - b^2, which cancels for distant spheres (Haines et al., "Precision
+        // Improvements for Ray/Sphere Intersection", Ray Tracing Gems, ch. 7, 2019).
+        let perp = to_centre - b * dir;
+        let h_sq = light.bound_radius * light.bound_radius - dot(perp, perp);
+        if h_sq >= 0.0 {
+            reach = max(reach, b + sqrt(h_sq));
+        }
+    }
+    // A little past the exit, for the rounding of the exit distance itself.
+    return reach * (1.0 + 1.0e-4);
+}
