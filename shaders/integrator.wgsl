@@ -32,15 +32,15 @@ fn is_finite3(v: vec3f) -> bool {
     return is_finite(v.x) && is_finite(v.y) && is_finite(v.z);
 }
 
-fn triangle_normal(v: TriangleVerts) -> vec3f {
+fn triangle_normal(v: TrianglePositions) -> vec3f {
     let c = cross(v.p1 - v.p0, v.p2 - v.p0);
     let len_sq = dot(c, c);
     return select(vec3f(0.0, 0.0, 1.0), c * inverseSqrt(len_sq), len_sq > 0.0);
 }
 
 fn surface_at(hit: Hit, ray_dir: vec3f) -> SurfaceHit {
-    let v = tri_verts[hit.tri];
-    let sh = tri_shading[hit.tri];
+    let t = triangles[hit.tri];
+    let v = triangle_positions(t);
     let b0 = 1.0 - hit.b1 - hit.b2;
     let p = b0 * v.p0 + hit.b1 * v.p1 + hit.b2 * v.p2;
     var ng = triangle_normal(v);
@@ -49,19 +49,22 @@ fn surface_at(hit: Hit, ray_dir: vec3f) -> SurfaceHit {
     if !front {
         ng = -ng;
     }
-    let n_interp = b0 * sh.n0 + hit.b1 * sh.n1 + hit.b2 * sh.n2;
+    let n0 = decode_normal(vertices[t.v0].normal);
+    let n1 = decode_normal(vertices[t.v1].normal);
+    let n2 = decode_normal(vertices[t.v2].normal);
+    let n_interp = b0 * n0 + hit.b1 * n1 + hit.b2 * n2;
     let len_sq = dot(n_interp, n_interp);
     var ns = select(ng, n_interp * inverseSqrt(len_sq), len_sq > 0.0);
     if dot(ns, ng) < 0.0 {
         ns = -ns;
     }
     let uvs = surface_uvs(hit.tri, hit.b1, hit.b2);
-    ns = mapped_normal(materials[sh.material], uvs, hit.tri, ns);
+    ns = mapped_normal(materials[t.material], uvs, hit.tri, ns);
     // A shading normal that faces away from the viewer would make the BRDF vanish: fall back.
     if dot(ns, -ray_dir) <= 0.0 {
         ns = ng;
     }
-    return SurfaceHit(p, ng, ns, front, sh.material, sh.light, uvs);
+    return SurfaceHit(p, ng, ns, front, t.material, t.light, uvs);
 }
 
 // Radiance a hit surface emits back along the ray: one-sided unless the material is doubleSided.
@@ -276,7 +279,7 @@ fn direction_sample_value(c: ShadingContext, d: DirectionSample, plan: SamplePla
     }
     var w = 1.0;
     if d.mis && HAS_AREA_LIGHTS && e.light != NO_LIGHT && frame.light_count > 0u && plan.n > 0u {
-        let p_light = area_light_pdf(e.light, c.s.p, tri_verts[tri], e.p);
+        let p_light = area_light_pdf(e.light, c.s.p, triangle_positions(triangles[tri]), e.p);
         if p_light > 0.0 {
             w = mis_weight(f32(plan.m), d.pdf, f32(plan.n), p_light);
         }

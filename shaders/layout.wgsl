@@ -67,7 +67,7 @@ struct FrameParams {
 }
 
 // BVH2 node, 32 bytes. Inner node (count == 0): children at nodes[first] and nodes[first + 1].
-// Leaf (count > 0): triangles [first, first + count) of the BVH-ordered triangle arrays.
+// Leaf (count > 0): triangles [first, first + count) of the BVH-ordered `triangles`.
 struct BvhNode {
     min: vec3f,
     first: u32,
@@ -75,25 +75,34 @@ struct BvhNode {
     count: u32,
 }
 
-// Triangle vertex positions in world space, in BVH order.
-struct TriangleVerts {
-    p0: vec3f,
-    _pad0: f32,
-    p1: vec3f,
-    _pad1: f32,
-    p2: vec3f,
-    _pad2: f32,
+// A vertex in world space, shared by the triangles that index it: its position and its shading
+// normal, octahedral-encoded in two snorm16 (decode_normal below). 16 bytes.
+struct Vertex {
+    p: vec3f,
+    normal: u32,
 }
 
-// Per-triangle shading data, in the same (BVH) order as TriangleVerts.
-struct TriangleShading {
-    n0: vec3f,
+// A triangle, in BVH order: its corners (indices into `vertices`), its material, and the index
+// into `lights` of the area light it belongs to, or NO_LIGHT. 20 bytes.
+struct IndexedTriangle {
+    v0: u32,
+    v1: u32,
+    v2: u32,
     material: u32,
-    n1: vec3f,
-    // Index into `lights` of the area light this triangle belongs to, or NO_LIGHT.
     light: u32,
-    n2: vec3f,
-    _pad: u32,
+}
+
+// Octahedral unit-vector decoding (Cigolle et al., "A Survey of Efficient Representations for
+// Independent Unit Vectors", JCGT 3(2), 2014, §3.1; the fold without branches is Rune Stubbe's).
+// The host's encoder is `layout::encode_normal`; 16 bits a component bound the angular error by
+// about 1e-4 rad.
+fn decode_normal(bits: u32) -> vec3f {
+    let e = unpack2x16snorm(bits);
+    var n = vec3f(e, 1.0 - abs(e.x) - abs(e.y));
+    let t = max(-n.z, 0.0);
+    n.x += select(t, -t, n.x >= 0.0);
+    n.y += select(t, -t, n.y >= 0.0);
+    return normalize(n);
 }
 
 // glTF metallic-roughness material with KHR_materials_specular and emission.
@@ -134,13 +143,6 @@ struct TextureInfo {
     width: u32,
     height: u32,
     sampling: u32,
-}
-
-// Texture coordinates of a triangle's vertices, in BVH order: (TEXCOORD_0.xy, TEXCOORD_1.xy).
-struct TriangleUvs {
-    v0: vec4f,
-    v1: vec4f,
-    v2: vec4f,
 }
 
 // One light. Area lights own emitter triangles [first_tri, first_tri + tri_count).
@@ -199,8 +201,8 @@ struct PixelCounters {
 // every dispatch; that cost ~12 ms and 0.7-7.6 MiB of never-freed memory per dispatch.
 @group(0) @binding(0) var<storage, read> frame: FrameParams;
 @group(0) @binding(1) var<storage, read> bvh_nodes: array<BvhNode>;
-@group(0) @binding(2) var<storage, read> tri_verts: array<TriangleVerts>;
-@group(0) @binding(3) var<storage, read> tri_shading: array<TriangleShading>;
+@group(0) @binding(2) var<storage, read> vertices: array<Vertex>;
+@group(0) @binding(3) var<storage, read> triangles: array<IndexedTriangle>;
 @group(0) @binding(4) var<storage, read> materials: array<Material>;
 @group(0) @binding(5) var<storage, read> lights: array<Light>;
 @group(0) @binding(6) var<storage, read> emitter_tris: array<EmitterTriangle>;

@@ -185,12 +185,12 @@ fn sample_light(index: u32, x: vec3f, u: vec3f) -> LightSample {
 
 // Solid-angle pdf with which the light strategy (selection included) would have produced the
 // direction from x to point y on emitter triangle v of light `index`.
-fn area_light_pdf(index: u32, x: vec3f, v: TriangleVerts, y: vec3f) -> f32 {
+fn area_light_pdf(index: u32, x: vec3f, v: TrianglePositions, y: vec3f) -> f32 {
     return light_selection_pdf(index) * area_light_direction_pdf(index, x, v, y);
 }
 
 // The same density once light `index` is chosen (sample_area_light's pdf).
-fn area_light_direction_pdf(index: u32, x: vec3f, v: TriangleVerts, y: vec3f) -> f32 {
+fn area_light_direction_pdf(index: u32, x: vec3f, v: TrianglePositions, y: vec3f) -> f32 {
     let n = cross(v.p1 - v.p0, v.p2 - v.p0);
     let omega = spherical_sampling_solid_angle(x, v.p0, v.p1, v.p2);
     if omega > 0.0 {

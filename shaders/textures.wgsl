@@ -15,7 +15,8 @@ const WRAP_CLAMP_TO_EDGE: u32 = 1u;
 const WRAP_MIRRORED_REPEAT: u32 = 2u;
 const UV_LIMIT: f32 = 1.0e5;
 
-@group(0) @binding(13) var<storage, read> tri_uvs: array<TriangleUvs>;
+// Texture coordinates of each vertex (TEXCOORD_0.xy, TEXCOORD_1.xy), indexed like `vertices`.
+@group(0) @binding(13) var<storage, read> vertex_uvs: array<vec4f>;
 @group(0) @binding(14) var<storage, read> texture_infos: array<TextureInfo>;
 @group(0) @binding(15) var<storage, read> texels: array<u32>;
 // The triangle (BVH order) of each emitter triangle, for emissive textures on light samples.
@@ -69,8 +70,8 @@ fn texture_lookup(index: u32, uv: vec2f, srgb: bool) -> vec4f {
 
 // Both texture-coordinate sets at barycentrics (b1, b2) of a triangle.
 fn surface_uvs(tri: u32, b1: f32, b2: f32) -> vec4f {
-    let t = tri_uvs[tri];
-    return (1.0 - b1 - b2) * t.v0 + b1 * t.v1 + b2 * t.v2;
+    let t = triangles[tri];
+    return (1.0 - b1 - b2) * vertex_uvs[t.v0] + b1 * vertex_uvs[t.v1] + b2 * vertex_uvs[t.v2];
 }
 
 fn texture_uv(r: TextureRef, uvs: vec4f) -> vec2f {
@@ -109,7 +110,7 @@ fn emitter_emission_texture(emitter: u32, b1: f32, b2: f32) -> vec3f {
         return vec3f(1.0);
     }
     let tri = emitter_source[emitter];
-    return emission_texture(materials[tri_shading[tri].material], surface_uvs(tri, b1, b2));
+    return emission_texture(materials[triangles[tri].material], surface_uvs(tri, b1, b2));
 }
 
 // The shading normal with the normal texture applied (glTF 2.0 §3.9.3: tangent-space normal,
@@ -121,11 +122,11 @@ fn mapped_normal(m: Material, uvs: vec4f, tri: u32, ns: vec3f) -> vec3f {
         return ns;
     }
     let r = m.normal_texture;
-    let v = tri_verts[tri];
-    let t = tri_uvs[tri];
-    let uv0 = texture_uv(r, t.v0);
-    let d1 = texture_uv(r, t.v1) - uv0;
-    let d2 = texture_uv(r, t.v2) - uv0;
+    let t = triangles[tri];
+    let v = triangle_positions(t);
+    let uv0 = texture_uv(r, vertex_uvs[t.v0]);
+    let d1 = texture_uv(r, vertex_uvs[t.v1]) - uv0;
+    let d2 = texture_uv(r, vertex_uvs[t.v2]) - uv0;
     let det = d1.x * d2.y - d1.y * d2.x;
     if abs(det) < 1.0e-20 {
         return ns;

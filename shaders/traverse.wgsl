@@ -13,6 +13,22 @@ struct Hit {
     found: bool,
 }
 
+// A triangle's corner positions, gathered from the shared vertices.
+struct TrianglePositions {
+    p0: vec3f,
+    p1: vec3f,
+    p2: vec3f,
+}
+
+fn triangle_positions(t: IndexedTriangle) -> TrianglePositions {
+    return TrianglePositions(vertices[t.v0].p, vertices[t.v1].p, vertices[t.v2].p);
+}
+
+// The same for triangle i, loading only its vertex indices.
+fn triangle_corners(i: u32) -> TrianglePositions {
+    return TrianglePositions(vertices[triangles[i].v0].p, vertices[triangles[i].v1].p, vertices[triangles[i].v2].p);
+}
+
 // Precomputed per-ray constants of the watertight test.
 struct RayShear {
     kx: u32,
@@ -121,7 +137,7 @@ fn trace_closest(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
         let node = bvh_nodes[node_index];
         if node.count > 0u {
             for (var i = node.first; i < node.first + node.count; i++) {
-                let tri = tri_verts[i];
+                let tri = triangle_corners(i);
                 let r = intersect_triangle(origin, sh, tri.p0, tri.p1, tri.p2, hit.t);
                 if r.x > 0.0 {
                     hit = Hit(r.x, r.y, r.z, i, true);
@@ -174,7 +190,7 @@ fn trace_occluded(origin: vec3f, dir: vec3f, t_max: f32) -> bool {
         let node = bvh_nodes[node_index];
         if node.count > 0u {
             for (var i = node.first; i < node.first + node.count; i++) {
-                let tri = tri_verts[i];
+                let tri = triangle_corners(i);
                 if intersect_triangle(origin, sh, tri.p0, tri.p1, tri.p2, t_max).x > 0.0 {
                     return true;
                 }

@@ -266,7 +266,7 @@ pub struct SceneUploadStats {
 /// settings and camera.
 pub struct GpuScene {
     pub(crate) buffers: Vec<wgpu::Buffer>,
-    /// tri_uvs, texture_infos, texels, emitter_source: only for scenes with textures.
+    /// vertex_uvs, texture_infos, texels, emitter_source: only for scenes with textures.
     pub(crate) texture_buffers: Option<[wgpu::Buffer; 4]>,
     pub(crate) light_count: u32,
     pub stats: SceneUploadStats,
@@ -349,8 +349,8 @@ impl Renderer {
         let max_binding = device.limits().max_storage_buffer_binding_size;
         let too_big = [
             std::mem::size_of_val(arrays.bvh_nodes.as_slice()),
-            std::mem::size_of_val(arrays.tri_verts.as_slice()),
-            std::mem::size_of_val(arrays.tri_shading.as_slice()),
+            std::mem::size_of_val(arrays.vertices.as_slice()),
+            std::mem::size_of_val(arrays.triangles.as_slice()),
             std::mem::size_of_val(arrays.emitter_tris.as_slice()),
         ]
         .into_iter()
@@ -364,8 +364,8 @@ impl Renderer {
         }
         let buffers = vec![
             storage_buffer(device, "bvh_nodes", &arrays.bvh_nodes),
-            storage_buffer(device, "tri_verts", &arrays.tri_verts),
-            storage_buffer(device, "tri_shading", &arrays.tri_shading),
+            storage_buffer(device, "vertices", &arrays.vertices),
+            storage_buffer(device, "triangles", &arrays.triangles),
             storage_buffer(device, "materials", &arrays.materials),
             storage_buffer(device, "lights", &arrays.lights),
             storage_buffer(device, "emitter_tris", &arrays.emitter_tris),
@@ -374,7 +374,7 @@ impl Renderer {
         // Scenes without textures upload none: their kernels do not bind any.
         let texture_buffers = arrays.textures.as_ref().map(|t| {
             [
-                storage_buffer(device, "tri_uvs", &t.tri_uvs),
+                storage_buffer(device, "vertex_uvs", &t.vertex_uvs),
                 storage_buffer(device, "texture_infos", &t.texture_infos),
                 storage_buffer(device, "texels", &t.texels),
                 storage_buffer(device, "emitter_source", &t.emitter_source),
@@ -422,9 +422,9 @@ impl Renderer {
             (_, false) => None,
             (Some(t), true) => Some(t),
             (None, true) => {
-                // One zeroed element of the largest of the four element types (TriangleUvs).
+                // One zeroed element of the largest of the four element types (16 bytes).
                 placeholders =
-                    [0u32; 4].map(|_| storage_buffer::<layout::TriangleUvs>(&self.gpu.device, "no textures", &[]));
+                    [0u32; 4].map(|_| storage_buffer::<layout::TextureInfo>(&self.gpu.device, "no textures", &[]));
                 Some(&placeholders)
             }
         };

@@ -77,24 +77,36 @@ pub struct BvhNode {
 
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-pub struct TriangleVerts {
-    pub p0: [f32; 3],
-    pub _pad0: f32,
-    pub p1: [f32; 3],
-    pub _pad1: f32,
-    pub p2: [f32; 3],
-    pub _pad2: f32,
+pub struct Vertex {
+    pub p: [f32; 3],
+    /// The shading normal, `encode_normal`d.
+    pub normal: u32,
 }
 
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-pub struct TriangleShading {
-    pub n0: [f32; 3],
+pub struct IndexedTriangle {
+    pub v0: u32,
+    pub v1: u32,
+    pub v2: u32,
     pub material: u32,
-    pub n1: [f32; 3],
     pub light: u32,
-    pub n2: [f32; 3],
-    pub _pad: u32,
+}
+
+/// Octahedral encoding of a unit vector in two snorm16, as WGSL's `pack2x16snorm` packs them
+/// (x in the low half); `decode_normal` in layout.wgsl undoes it. Cigolle et al., "A Survey of
+/// Efficient Representations for Independent Unit Vectors", JCGT 3(2), 2014, §3.1.
+pub fn encode_normal(n: [f32; 3]) -> u32 {
+    let [x, y, z] = n;
+    let l1 = x.abs() + y.abs() + z.abs();
+    if !(l1 > 0.0) {
+        return encode_normal([0.0, 0.0, 1.0]);
+    }
+    let (x, y, z) = (x / l1, y / l1, z / l1);
+    let sign = |v: f32| if v >= 0.0 { 1.0 } else { -1.0 };
+    let (u, v) = if z >= 0.0 { (x, y) } else { ((1.0 - y.abs()) * sign(x), (1.0 - x.abs()) * sign(y)) };
+    let snorm16 = |v: f32| ((v.clamp(-1.0, 1.0) * 32767.0).round() as i16) as u16 as u32;
+    snorm16(u) | snorm16(v) << 16
 }
 
 #[repr(C)]
@@ -139,14 +151,6 @@ pub struct TextureInfo {
     pub width: u32,
     pub height: u32,
     pub sampling: u32,
-}
-
-#[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-pub struct TriangleUvs {
-    pub v0: [f32; 4],
-    pub v1: [f32; 4],
-    pub v2: [f32; 4],
 }
 
 #[repr(C)]
@@ -236,8 +240,8 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             light_sampling
         }),
         layout!(BvhNode { min, first, max, count }),
-        layout!(TriangleVerts { p0, p1, p2 }),
-        layout!(TriangleShading { n0, material, n1, light, n2 }),
+        layout!(Vertex { p, normal }),
+        layout!(IndexedTriangle { v0, v1, v2, material, light }),
         layout!(Material {
             base_color,
             metallic,
@@ -254,7 +258,6 @@ pub fn rust_layouts() -> Vec<StructLayout> {
         }),
         layout!(TextureRef { row0, index, row1, tex_coord }),
         layout!(TextureInfo { offset, width, height, sampling }),
-        layout!(TriangleUvs { v0, v1, v2 }),
         layout!(Light {
             kind,
             first_tri,

@@ -4,11 +4,15 @@ use super::layout::{self, NO_LIGHT};
 use crate::bvh::Bvh;
 use crate::scene::{LightKind, Scene, TextureRef};
 use glam::Vec3;
+use std::collections::HashMap;
+use std::hash::{BuildHasherDefault, Hasher};
 
 pub struct SceneArrays {
     pub bvh_nodes: Vec<layout::BvhNode>,
-    pub tri_verts: Vec<layout::TriangleVerts>,
-    pub tri_shading: Vec<layout::TriangleShading>,
+    /// Shared by the triangles, in order of first use along `triangles`.
+    pub vertices: Vec<layout::Vertex>,
+    /// In BVH order.
+    pub triangles: Vec<layout::IndexedTriangle>,
     pub materials: Vec<layout::Material>,
     pub lights: Vec<layout::Light>,
     pub emitter_tris: Vec<layout::EmitterTriangle>,
@@ -18,7 +22,8 @@ pub struct SceneArrays {
 }
 
 pub struct TextureArrays {
-    pub tri_uvs: Vec<layout::TriangleUvs>,
+    /// Texture coordinates of each vertex, (TEXCOORD_0.xy, TEXCOORD_1.xy).
+    pub vertex_uvs: Vec<[f32; 4]>,
     pub texture_infos: Vec<layout::TextureInfo>,
     /// RGBA8 texels of every texture, one u32 each (red in the low byte, as unpack4x8unorm reads).
     pub texels: Vec<u32>,
@@ -37,22 +42,10 @@ fn texture_ref(r: &Option<TextureRef>) -> layout::TextureRef {
     }
 }
 
-fn texture_arrays(scene: &Scene, bvh: &Bvh, emitter_scene_tris: &[u32]) -> TextureArrays {
+fn texture_arrays(scene: &Scene, bvh: &Bvh, emitter_scene_tris: &[u32], vertex_uvs: Vec<[f32; 4]>) -> TextureArrays {
     let mut position_in_bvh = vec![0u32; scene.triangles.len()];
     for (i, &t) in bvh.order.iter().enumerate() {
         position_in_bvh[t as usize] = i as u32;
-    }
-    let mut tri_uvs: Vec<layout::TriangleUvs> = bvh
-        .order
-        .iter()
-        .map(|&t| {
-            let uv = &scene.triangles[t as usize].uv;
-            let v = |k: usize| [uv[0][k].x, uv[0][k].y, uv[1][k].x, uv[1][k].y];
-            layout::TriangleUvs { v0: v(0), v1: v(1), v2: v(2) }
-        })
-        .collect();
-    if tri_uvs.is_empty() {
-        tri_uvs.push(layout::TriangleUvs::default());
     }
     let mut texture_infos = Vec::new();
     let mut texels = Vec::new();
@@ -66,7 +59,7 @@ fn texture_arrays(scene: &Scene, bvh: &Bvh, emitter_scene_tris: &[u32]) -> Textu
         texels.extend(t.texels.iter().map(|&c| u32::from_le_bytes(c)));
     }
     let emitter_source = emitter_scene_tris.iter().map(|&t| position_in_bvh[t as usize]).collect();
-    TextureArrays { tri_uvs, texture_infos, texels, emitter_source }
+    TextureArrays { vertex_uvs, texture_infos, texels, emitter_source }
 }
 
 fn luminance(c: Vec3) -> f32 {
@@ -186,31 +179,8 @@ pub fn build_scene_arrays(scene: &Scene, bvh: &Bvh) -> SceneArrays {
         })
         .collect();
 
-    let mut tri_verts = Vec::with_capacity(bvh.order.len().max(1));
-    let mut tri_shading = Vec::with_capacity(bvh.order.len().max(1));
-    for &t in &bvh.order {
-        let tri = &scene.triangles[t as usize];
-        tri_verts.push(layout::TriangleVerts {
-            p0: tri.p[0].to_array(),
-            p1: tri.p[1].to_array(),
-            p2: tri.p[2].to_array(),
-            ..Default::default()
-        });
-        tri_shading.push(layout::TriangleShading {
-            n0: tri.n[0].to_array(),
-            material: tri.material,
-            n1: tri.n[1].to_array(),
-            light: triangle_light[t as usize],
-            n2: tri.n[2].to_array(),
-            _pad: 0,
-        });
-    }
-
-    if tri_verts.is_empty() {
-        // Placeholder for an empty scene (see `build_bvh`); zero area, so it is never hit.
-        tri_verts.push(layout::TriangleVerts::default());
-        tri_shading.push(layout::TriangleShading { light: NO_LIGHT, ..Default::default() });
-    }
+    let with_uvs = crate::features::SceneFeatures::detect(scene).textures();
+    let (vertices, vertex_uvs, triangles) = indexed_triangles(scene, bvh, &triangle_light, with_uvs);
 
     let materials = scene
         .materials
@@ -231,18 +201,90 @@ pub fn build_scene_arrays(scene: &Scene, bvh: &Bvh) -> SceneArrays {
             ..Default::default()
         })
         .collect();
-    let textures = crate::features::SceneFeatures::detect(scene)
-        .textures()
-        .then(|| texture_arrays(scene, bvh, &emitter_scene_tris));
+    let textures = with_uvs.then(|| texture_arrays(scene, bvh, &emitter_scene_tris, vertex_uvs));
 
     SceneArrays {
         bvh_nodes: bvh.nodes.clone(),
-        tri_verts,
-        tri_shading,
+        vertices,
+        triangles,
         materials,
         lights,
         emitter_tris,
         light_power_cdf,
         textures,
+    }
+}
+
+/// The triangles in BVH order over shared vertices: one vertex for all the corners with the same
+/// position, shading normal (as encoded) and, with `with_uvs`, texture coordinates. A closed mesh
+/// has about half as many vertices as triangles, so a triangle costs 20 bytes plus about 8 of
+/// vertices instead of 96 bytes of its own corners (docs/performance.md, memory per triangle).
+/// Returns the vertices, their texture coordinates (empty without `with_uvs`) and the triangles.
+fn indexed_triangles(
+    scene: &Scene,
+    bvh: &Bvh,
+    triangle_light: &[u32],
+    with_uvs: bool,
+) -> (Vec<layout::Vertex>, Vec<[f32; 4]>, Vec<layout::IndexedTriangle>) {
+    let mut index_of: HashMap<[u32; 8], u32, BuildHasherDefault<VertexKeyHasher>> = HashMap::default();
+    index_of.reserve(bvh.order.len());
+    let mut vertices = Vec::with_capacity(bvh.order.len() / 2 + 1);
+    let mut vertex_uvs = Vec::new();
+    let mut triangles = Vec::with_capacity(bvh.order.len().max(1));
+    for &t in &bvh.order {
+        let tri = &scene.triangles[t as usize];
+        let corner = |k: usize| {
+            let p = tri.p[k].to_array();
+            let normal = layout::encode_normal(tri.n[k].to_array());
+            let uv = if with_uvs { [tri.uv[0][k].x, tri.uv[0][k].y, tri.uv[1][k].x, tri.uv[1][k].y] } else { [0.0; 4] };
+            let key = [p[0], p[1], p[2], f32::from_bits(normal), uv[0], uv[1], uv[2], uv[3]].map(f32::to_bits);
+            (key, layout::Vertex { p, normal }, uv)
+        };
+        let mut v = [0u32; 3];
+        for (k, index) in v.iter_mut().enumerate() {
+            let (key, vertex, uv) = corner(k);
+            *index = *index_of.entry(key).or_insert_with(|| {
+                vertices.push(vertex);
+                if with_uvs {
+                    vertex_uvs.push(uv);
+                }
+                (vertices.len() - 1) as u32
+            });
+        }
+        triangles.push(layout::IndexedTriangle {
+            v0: v[0],
+            v1: v[1],
+            v2: v[2],
+            material: tri.material,
+            light: triangle_light[t as usize],
+        });
+    }
+    if triangles.is_empty() {
+        // Placeholder for an empty scene (see `build_bvh`): zero area, so it is never hit.
+        vertices.push(layout::Vertex::default());
+        triangles.push(layout::IndexedTriangle { light: NO_LIGHT, ..Default::default() });
+    }
+    if with_uvs && vertex_uvs.is_empty() {
+        vertex_uvs.push([0.0; 4]);
+    }
+    (vertices, vertex_uvs, triangles)
+}
+
+/// A multiply-rotate hash for vertex keys (FxHash's scheme): SipHash's resistance to chosen keys
+/// is not needed here and costs a third of the indexing time on a million triangles.
+#[derive(Default)]
+struct VertexKeyHasher(u64);
+
+impl Hasher for VertexKeyHasher {
+    fn write(&mut self, bytes: &[u8]) {
+        for chunk in bytes.chunks(8) {
+            let mut word = [0u8; 8];
+            word[..chunk.len()].copy_from_slice(chunk);
+            self.0 = (self.0.rotate_left(5) ^ u64::from_le_bytes(word)).wrapping_mul(0x51_7c_c1_b7_27_22_0a_95);
+        }
+    }
+
+    fn finish(&self) -> u64 {
+        self.0
     }
 }
