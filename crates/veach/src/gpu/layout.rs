@@ -99,7 +99,7 @@ pub struct IndexedTriangle {
 pub fn encode_normal(n: [f32; 3]) -> u32 {
     let [x, y, z] = n;
     let l1 = x.abs() + y.abs() + z.abs();
-    if !(l1 > 0.0) {
+    if l1.is_nan() || l1 <= 0.0 {
         return encode_normal([0.0, 0.0, 1.0]);
     }
     let (x, y, z) = (x / l1, y / l1, z / l1);
