@@ -64,6 +64,9 @@ struct FrameParams {
     hide_emitters: u32,
     // LIGHT_SAMPLING_*: how a point on an emitter triangle is sampled.
     light_sampling: u32,
+    // A sphere around every area light's triangles (radius 0: none), for emitter_reach.
+    emitter_centre: vec3f,
+    emitter_radius: f32,
 }
 
 // BVH2 node, 32 bytes. Inner node (count == 0): children at nodes[first] and nodes[first + 1].

@@ -201,8 +201,20 @@ fn area_light_direction_pdf(index: u32, x: vec3f, v: TrianglePositions, y: vec3f
     return area_to_solid_angle_pdf(dot(d, d), cos_l, lights[index].area);
 }
 
-// emitter_reach looks at the lights one by one up to this many; past it rays are not clipped.
+// emitter_reach looks at the lights one by one up to this many; past it, at one sphere around all.
 const MAX_REACH_LIGHTS: u32 = 16u;
+
+// Where a ray along unit `dir` leaves the sphere, or 0 if it misses it or the sphere lies behind.
+fn sphere_exit(origin: vec3f, dir: vec3f, centre: vec3f, radius: f32) -> f32 {
+    let to_centre = centre - origin;
+    let b = dot(to_centre, dir);
+    // Squared distance from the centre to the ray's line from the perpendicular itself, not as
+    // |to_centre|^2 - b^2, which cancels for distant spheres (Haines et al., "Precision
+    // Improvements for Ray/Sphere Intersection", Ray Tracing Gems, ch. 7, 2019).
+    let perp = to_centre - b * dir;
+    let h_sq = radius * radius - dot(perp, perp);
+    return select(0.0, max(b + sqrt(max(h_sq, 0.0)), 0.0), h_sq >= 0.0 && radius > 0.0);
+}
 
 // How far along origin + t dir (dir of unit length) a direction sample can find emitted radiance:
 // the farthest exit from the bounding spheres of the area lights the ray crosses, 0 when it
@@ -215,7 +227,7 @@ fn emitter_reach(origin: vec3f, dir: vec3f) -> f32 {
         return 0.0;
     }
     if frame.light_count > MAX_REACH_LIGHTS {
-        return RAY_INF;
+        return sphere_exit(origin, dir, frame.emitter_centre, frame.emitter_radius) * (1.0 + 1.0e-4);
     }
     var reach = 0.0;
     for (var li = 0u; li < frame.light_count; li++) {
@@ -223,16 +235,7 @@ fn emitter_reach(origin: vec3f, dir: vec3f) -> f32 {
         if light.kind != LIGHT_AREA {
             continue;
         }
-        let to_centre = light.position - origin;
-        let b = dot(to_centre, dir);
-        // Squared distance from the centre to the ray's line from the perpendicular itself, not
-        // as |to_centre|^2 - b^2, which cancels for distant spheres (Haines et al., "Precision
-        // Improvements for Ray/Sphere Intersection", Ray Tracing Gems, ch. 7, 2019).
-        let perp = to_centre - b * dir;
-        let h_sq = light.bound_radius * light.bound_radius - dot(perp, perp);
-        if h_sq >= 0.0 {
-            reach = max(reach, b + sqrt(h_sq));
-        }
+        reach = max(reach, sphere_exit(origin, dir, light.position, light.bound_radius));
     }
     // A little past the exit, for the rounding of the exit distance itself.
     return reach * (1.0 + 1.0e-4);

@@ -269,6 +269,7 @@ pub struct GpuScene {
     /// vertex_uvs, texture_infos, texels, emitter_source: only for scenes with textures.
     pub(crate) texture_buffers: Option<[wgpu::Buffer; 4]>,
     pub(crate) light_count: u32,
+    pub(crate) emitter_bound: ([f32; 3], f32),
     pub stats: SceneUploadStats,
     /// What the scene needs of the kernel.
     pub features: SceneFeatures,
@@ -386,6 +387,7 @@ impl Renderer {
             buffers,
             texture_buffers,
             light_count: scene.lights.len() as u32,
+            emitter_bound: arrays.emitter_bound,
             stats,
             features: SceneFeatures::detect(scene),
         })
@@ -470,6 +472,8 @@ impl Renderer {
                 LightSelection::Power => layout::SELECT_POWER,
             },
             light_count: scene.light_count,
+            emitter_centre: scene.emitter_bound.0,
+            emitter_radius: scene.emitter_bound.1,
             light_sampling: match s.light_sampling {
                 LightSampling::Area => layout::LIGHT_SAMPLING_AREA,
                 LightSampling::SolidAngle => layout::LIGHT_SAMPLING_SOLID_ANGLE,

@@ -64,6 +64,8 @@ pub struct FrameParams {
     pub write_aovs: u32,
     pub hide_emitters: u32,
     pub light_sampling: u32,
+    pub emitter_centre: [f32; 3],
+    pub emitter_radius: f32,
 }
 
 #[repr(C)]
@@ -237,7 +239,9 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             light_count,
             write_aovs,
             hide_emitters,
-            light_sampling
+            light_sampling,
+            emitter_centre,
+            emitter_radius
         }),
         layout!(BvhNode { min, first, max, count }),
         layout!(Vertex { p, normal }),

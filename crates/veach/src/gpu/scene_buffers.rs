@@ -17,6 +17,8 @@ pub struct SceneArrays {
     pub lights: Vec<layout::Light>,
     pub emitter_tris: Vec<layout::EmitterTriangle>,
     pub light_power_cdf: Vec<f32>,
+    /// Centre and radius of a sphere around every area light's triangles; radius 0 without any.
+    pub emitter_bound: ([f32; 3], f32),
     /// Only for scenes with textures (`shaders/textures.wgsl`).
     pub textures: Option<TextureArrays>,
 }
@@ -179,6 +181,12 @@ pub fn build_scene_arrays(scene: &Scene, bvh: &Bvh) -> SceneArrays {
         })
         .collect();
 
+    let emitter_bound = if emitter_scene_tris.is_empty() {
+        ([0.0; 3], 0.0)
+    } else {
+        let (centre, radius) = bounding_sphere(emitter_scene_tris.iter().flat_map(|&t| scene.triangles[t as usize].p));
+        (centre.to_array(), radius)
+    };
     let with_uvs = crate::features::SceneFeatures::detect(scene).textures();
     let (vertices, vertex_uvs, triangles) = indexed_triangles(scene, bvh, &triangle_light, with_uvs);
 
@@ -211,6 +219,7 @@ pub fn build_scene_arrays(scene: &Scene, bvh: &Bvh) -> SceneArrays {
         lights,
         emitter_tris,
         light_power_cdf,
+        emitter_bound,
         textures,
     }
 }
