@@ -25,6 +25,8 @@ const TEST_PDF_LIGHT: u32 = 14u;
 const TEST_EVAL_BSDF: u32 = 20u;
 // test_in[i] = (n_f, p_f, n_g, p_g): out[i] = (w_f, w_g, balance w_f, power w_f).
 const TEST_MIS_WEIGHTS: u32 = 21u;
+// test_in[i] = (low, high 16 bits of an encoded normal): out[i] = (decode_normal, 0).
+const TEST_DECODE_NORMAL: u32 = 22u;
 // test_in[i] = (u, v, texture index, 1 for sRGB): out[i] = texture_lookup (textures.wgsl).
 const TEST_TEXTURE_LOOKUP: u32 = 30u;
 // test_in[i] = (TEXCOORD_0.xy, TEXCOORD_1.xy): the test material with its textures applied,
@@ -123,6 +125,10 @@ fn run_test(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) 
                 balance_heuristic(q.x, q.y, q.z, q.w),
                 power_heuristic(q.x, q.y, q.z, q.w),
             );
+        }
+        case TEST_DECODE_NORMAL: {
+            let q = test_in[i];
+            test_out[i] = vec4f(decode_normal(u32(q.x) | (u32(q.y) << 16u)), 0.0);
         }
         case TEST_TEXTURE_LOOKUP: {
             let q = test_in[i];

@@ -710,3 +710,56 @@ fn mis_weights_sum_to_one_and_match_the_heuristics() {
         }
     }
 }
+
+/// Shading normals are stored octahedral-encoded in two snorm16 (`layout::encode_normal` on the
+/// host, `decode_normal` in the kernel): every direction, including the axes, the equator and the
+/// folded lower hemisphere, comes back within 1e-4 rad. Bound: rounding moves each octahedral
+/// coordinate by at most 1/65534; the unnormalised decoded point then moves by at most √2 times
+/// that (the fold is 1-Lipschitz per axis) and lies at distance >= 1/√3 from the origin, so the
+/// direction turns by at most √6/65534 ≈ 3.7e-5 rad; 1e-4 leaves room for f32 rounding.
+#[test]
+fn encoded_normals_decode_within_1e4_radians() {
+    let mut normals: Vec<[f32; 3]> = vec![
+        [1.0, 0.0, 0.0],
+        [-1.0, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        [0.0, -1.0, 0.0],
+        [0.0, 0.0, 1.0],
+        [0.0, 0.0, -1.0],
+        [0.6, 0.8, 0.0],
+        [-0.6, 0.0, -0.8],
+        [1e-7, -1e-7, -1.0],
+    ];
+    let mut rng = 0x2545_f491_4f6c_dd1du64;
+    let mut next = || {
+        rng ^= rng << 13;
+        rng ^= rng >> 7;
+        rng ^= rng << 17;
+        (rng >> 40) as f32 / (1u64 << 24) as f32
+    };
+    while normals.len() < 4096 {
+        // Uniform on the sphere (Archimedes): z uniform in [-1, 1], azimuth uniform.
+        let (z, phi) = (2.0 * next() - 1.0, 2.0 * std::f32::consts::PI * next());
+        let r = (1.0 - z * z).max(0.0).sqrt();
+        normals.push([r * phi.cos(), r * phi.sin(), z]);
+    }
+    let input: Vec<[f32; 4]> = normals
+        .iter()
+        .map(|&n| {
+            let bits = layout::encode_normal(n);
+            [(bits & 0xffff) as f32, (bits >> 16) as f32, 0.0, 0.0]
+        })
+        .collect();
+    let params = TestParams { routine: routine::DECODE_NORMAL, count: input.len() as u32, ..Default::default() };
+    let out = kernel().run(empty_scene(), &frame(0, 0, 0), &params, &input, 1).unwrap();
+    for (n, d) in normals.iter().zip(&out) {
+        let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt() as f64;
+        let dot = (n[0] * d[0] + n[1] * d[1] + n[2] * d[2]) as f64 / len;
+        let cross_len = {
+            let c = [n[1] * d[2] - n[2] * d[1], n[2] * d[0] - n[0] * d[2], n[0] * d[1] - n[1] * d[0]];
+            ((c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) as f64).sqrt() / len
+        };
+        let angle = cross_len.atan2(dot);
+        assert!(angle < 1e-4, "normal {n:?} decoded as {d:?}: {angle:e} rad off");
+    }
+}

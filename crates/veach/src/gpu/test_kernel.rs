@@ -23,6 +23,7 @@ pub mod routine {
     pub const PDF_LIGHT: u32 = 14;
     pub const EVAL_BSDF: u32 = 20;
     pub const MIS_WEIGHTS: u32 = 21;
+    pub const DECODE_NORMAL: u32 = 22;
     pub const TEXTURE_LOOKUP: u32 = 30;
     pub const TEXTURED_MATERIAL: u32 = 31;
 }
