@@ -15,6 +15,8 @@ override HAS_GLOSSY: bool = true;
 override HAS_MIRRORS: bool = true;
 // The contribution images may be written.
 override HAS_AOVS: bool = true;
+// Light samples may pick directions by solid angle (frame.light_sampling); false: by area only.
+override SOLID_ANGLE_SAMPLING: bool = true;
 
 const STRATEGY_FROM_FRAME: u32 = 255u;
 

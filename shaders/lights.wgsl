@@ -97,7 +97,7 @@ const MAX_SPHERICAL_SAMPLE_AREA: f32 = 6.22;
 
 // Solid angle of the emitter triangle from x where it is sampled by solid angle, else 0.
 fn spherical_sampling_solid_angle(x: vec3f, p0: vec3f, p1: vec3f, p2: vec3f) -> f32 {
-    if frame.light_sampling != LIGHT_SAMPLING_SOLID_ANGLE {
+    if !SOLID_ANGLE_SAMPLING || frame.light_sampling != LIGHT_SAMPLING_SOLID_ANGLE {
         return 0.0;
     }
     let omega = spherical_triangle_solid_angle(x, p0, p1, p2);

@@ -102,6 +102,8 @@ pub struct KernelKey {
     pub glossy: bool,
     pub mirrors: bool,
     pub aovs: bool,
+    /// Light samples may be taken by solid angle (`LightSampling::SolidAngle`).
+    pub solid_angle: bool,
     /// The texture module (shaders/textures.wgsl and its bindings) is in the kernel...
     pub textures: bool,
     /// ...with lookups of these kinds: base colour, metallic-roughness, emissive, normal.
@@ -117,6 +119,7 @@ impl KernelKey {
             glossy: true,
             mirrors: true,
             aovs: true,
+            solid_angle: true,
             textures: true,
             texture_kinds: [true; 4],
         }
@@ -131,6 +134,7 @@ impl KernelKey {
             glossy: features.any_glossy,
             mirrors: features.any_mirror,
             aovs: settings.write_aovs,
+            solid_angle: features.area_lights && settings.light_sampling == crate::render::LightSampling::SolidAngle,
             textures: features.textures(),
             texture_kinds: [
                 features.base_color_texture,
@@ -159,6 +163,7 @@ impl KernelKey {
             ("HAS_GLOSSY", flag(self.glossy)),
             ("HAS_MIRRORS", flag(self.mirrors)),
             ("HAS_AOVS", flag(self.aovs)),
+            ("SOLID_ANGLE_SAMPLING", flag(self.solid_angle)),
         ];
         // These exist only in textures.wgsl.
         if self.textures {
