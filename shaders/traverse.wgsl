@@ -122,6 +122,33 @@ fn safe_inverse(d: vec3f) -> vec3f {
     return 1.0 / dd;
 }
 
+const NO_NODE: u32 = 0xffffffffu;
+
+// One step from inner node `node`, given the ray's entry distances to its children (RAY_INF where
+// it misses one): the nearer child it enters, with the farther pushed on the stack; the one it
+// enters; or, entering neither, the node on top of the stack, or NO_NODE when that is empty.
+fn next_node(node: BvhNode, tl: f32, tr: f32, stack: ptr<function, array<u32, BVH_STACK_SIZE>>, sp: ptr<function, u32>) -> u32 {
+    if tl != RAY_INF && tr != RAY_INF {
+        let near_is_left = tl <= tr;
+        if *sp < BVH_STACK_SIZE {
+            (*stack)[*sp] = select(node.first, node.first + 1u, near_is_left);
+            *sp += 1u;
+        }
+        return select(node.first + 1u, node.first, near_is_left);
+    }
+    if tl != RAY_INF {
+        return node.first;
+    }
+    if tr != RAY_INF {
+        return node.first + 1u;
+    }
+    if *sp == 0u {
+        return NO_NODE;
+    }
+    *sp -= 1u;
+    return (*stack)[*sp];
+}
+
 // Both traversals below are "while-while" loops (Aila & Laine, "Understanding the Efficiency of
 // Ray Traversal on GPUs", HPG 2009): the inner loop walks inner nodes until the ray reaches a
 // leaf, the outer one tests that leaf's triangles. Rays that run side by side in SIMD lanes
@@ -148,23 +175,10 @@ fn trace_closest(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
             let right = bvh_nodes[node.first + 1u];
             let tl = intersect_aabb(origin, inv_dir, left.min, left.max, hit.t);
             let tr = intersect_aabb(origin, inv_dir, right.min, right.max, hit.t);
-            if tl != RAY_INF && tr != RAY_INF {
-                let near_is_left = tl <= tr;
-                node_index = select(node.first + 1u, node.first, near_is_left);
-                if sp < BVH_STACK_SIZE {
-                    stack[sp] = select(node.first, node.first + 1u, near_is_left);
-                    sp++;
-                }
-            } else if tl != RAY_INF {
-                node_index = node.first;
-            } else if tr != RAY_INF {
-                node_index = node.first + 1u;
-            } else if sp == 0u {
+            node_index = next_node(node, tl, tr, &stack, &sp);
+            if node_index == NO_NODE {
                 at_leaf = false;
                 break;
-            } else {
-                sp--;
-                node_index = stack[sp];
             }
             node = bvh_nodes[node_index];
         }
@@ -203,22 +217,10 @@ fn trace_occluded(origin: vec3f, dir: vec3f, t_max: f32) -> bool {
         while node.count == 0u {
             let tl = intersect_aabb(origin, inv_dir, bvh_nodes[node.first].min, bvh_nodes[node.first].max, t_max);
             let tr = intersect_aabb(origin, inv_dir, bvh_nodes[node.first + 1u].min, bvh_nodes[node.first + 1u].max, t_max);
-            if tl != RAY_INF && tr != RAY_INF {
-                node_index = node.first;
-                if sp < BVH_STACK_SIZE {
-                    stack[sp] = node.first + 1u;
-                    sp++;
-                }
-            } else if tl != RAY_INF {
-                node_index = node.first;
-            } else if tr != RAY_INF {
-                node_index = node.first + 1u;
-            } else if sp == 0u {
+            node_index = next_node(node, tl, tr, &stack, &sp);
+            if node_index == NO_NODE {
                 at_leaf = false;
                 break;
-            } else {
-                sp--;
-                node_index = stack[sp];
             }
             node = bvh_nodes[node_index];
         }
