@@ -126,7 +126,9 @@ fn textured_materials_apply_transforms_and_coordinate_sets() {
     let gpu_scene = upload(&scene);
     let material = &scene.materials[0];
     let bvh = veach::bvh::build_bvh(&scene.triangles);
-    let gpu_material = veach::gpu::scene_buffers::build_scene_arrays(&scene, &bvh).materials[0];
+    let gpu_material =
+        veach::gpu::scene_buffers::build_scene_arrays(&scene, &veach::features::SceneFeatures::detect(&scene), &bvh)
+            .materials[0];
     let mut u = uniforms(11);
     let uvs: Vec<[f32; 4]> = (0..3000).map(|_| std::array::from_fn(|_| u() * 4.0 - 1.5)).collect();
     let params = TestParams {

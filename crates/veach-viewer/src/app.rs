@@ -33,15 +33,7 @@ impl ViewerOptions {
     pub fn new(scene: PathBuf) -> ViewerOptions {
         ViewerOptions {
             scene,
-            settings: RenderSettings {
-                spp: 4096,
-                strategy: Strategy::Mis,
-                light_samples: 1,
-                brdf_samples: 1,
-                heuristic: Heuristic::Power,
-                light_selection: LightSelection::Power,
-                ..Default::default()
-            },
+            settings: RenderSettings { spp: 4096, ..RenderSettings::mis_power() },
             camera: None,
             reference: None,
             exposure: 0.0,

@@ -119,6 +119,22 @@ pub struct RenderSettings {
     pub specialise: bool,
 }
 
+impl RenderSettings {
+    /// MIS with 1 light + 1 BRDF sample per camera sample, the power heuristic and one light
+    /// chosen by power per light sample (the bench's mis-power): the viewer's start and `veach
+    /// scale`'s setting.
+    pub fn mis_power() -> RenderSettings {
+        RenderSettings {
+            strategy: Strategy::Mis,
+            light_samples: 1,
+            brdf_samples: 1,
+            heuristic: Heuristic::Power,
+            light_selection: LightSelection::Power,
+            ..Default::default()
+        }
+    }
+}
+
 impl Default for RenderSettings {
     fn default() -> Self {
         let (light_samples, brdf_samples) = Strategy::Mis.default_sample_counts();
@@ -345,7 +361,8 @@ impl Renderer {
             ..Default::default()
         };
         let upload_start = Instant::now();
-        let arrays: SceneArrays = build_scene_arrays(scene, &bvh);
+        let features = SceneFeatures::detect(scene);
+        let arrays: SceneArrays = build_scene_arrays(scene, &features, &bvh);
         let device = &self.gpu.device;
         let max_binding = device.limits().max_storage_buffer_binding_size;
         let too_big = [
@@ -389,7 +406,7 @@ impl Renderer {
             light_count: scene.lights.len() as u32,
             emitter_bound: arrays.emitter_bound,
             stats,
-            features: SceneFeatures::detect(scene),
+            features,
         })
     }
 

@@ -6,7 +6,7 @@ use crate::assets::scale::{light_scene, triangle_scene};
 use crate::bench::render_seconds;
 use crate::error::{Error, Result};
 use crate::gpu::layout::BvhNode;
-use crate::render::{Heuristic, LightSelection, RenderSettings, Renderer, Strategy};
+use crate::render::{RenderSettings, Renderer};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -57,20 +57,9 @@ impl ScaleRow {
     }
 }
 
-/// The settings every point renders with: MIS, 1 light + 1 BRDF sample per camera sample, one
-/// light chosen by power per light sample (the bench's mis-power).
+/// The settings every point renders with: `RenderSettings::mis_power` at the configured size.
 pub fn scale_settings(config: &ScaleConfig) -> RenderSettings {
-    RenderSettings {
-        width: config.width,
-        height: config.height,
-        spp: config.spp,
-        strategy: Strategy::Mis,
-        light_samples: 1,
-        brdf_samples: 1,
-        heuristic: Heuristic::Power,
-        light_selection: LightSelection::Power,
-        ..Default::default()
-    }
+    RenderSettings { width: config.width, height: config.height, spp: config.spp, ..RenderSettings::mis_power() }
 }
 
 /// Writes the scene, loads it back as a user's file would be, builds and uploads it, renders it

@@ -2,6 +2,7 @@
 
 use super::layout::{self, NO_LIGHT};
 use crate::bvh::Bvh;
+use crate::features::SceneFeatures;
 use crate::scene::{LightKind, Scene, TextureRef};
 use glam::Vec3;
 use std::collections::HashMap;
@@ -104,7 +105,7 @@ fn bounding_sphere(points: impl Iterator<Item = Vec3> + Clone) -> (Vec3, f32) {
     (centre, radius * (1.0 + 1e-5) + 1e-5 * centre.abs().max_element())
 }
 
-pub fn build_scene_arrays(scene: &Scene, bvh: &Bvh) -> SceneArrays {
+pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) -> SceneArrays {
     let mut triangle_light = vec![NO_LIGHT; scene.triangles.len()];
     let mut lights = Vec::with_capacity(scene.lights.len());
     let mut emitter_tris = Vec::new();
@@ -187,7 +188,7 @@ pub fn build_scene_arrays(scene: &Scene, bvh: &Bvh) -> SceneArrays {
         let (centre, radius) = bounding_sphere(emitter_scene_tris.iter().flat_map(|&t| scene.triangles[t as usize].p));
         (centre.to_array(), radius)
     };
-    let with_uvs = crate::features::SceneFeatures::detect(scene).textures();
+    let with_uvs = features.textures();
     let (vertices, vertex_uvs, triangles) = indexed_triangles(scene, bvh, &triangle_light, with_uvs);
 
     let materials = scene
