@@ -29,6 +29,7 @@ bugs=(
   "shaders/textures.wgsl|return select(v, vec4f(srgb_to_linear(v.rgb), v.a), srgb);|return v;|textures|lookups|sRGB textures not decoded"
   "shaders/lights.wgsl|max(b + sqrt(max(h_sq, 0.0)), 0.0)|max(b, 0.0)|strategies|cornell_box|direction samples clipped at the light's centre, not its far side"
   "shaders/layout.wgsl|let t = max(-n.z, 0.0);|let t = 0.0;|sampling|encoded_normals|octahedral decoding without the lower hemisphere's fold"
+  "shaders/wavefront.wgsl|rng_seed(q.pixel, frame.sample_start + deferred_header.direction_round, frame.seed)|rng_seed(q.pixel, frame.sample_start, frame.seed)|specialise|wavefront|direction kernel re-traces the first round's camera ray"
   "shaders/traverse.wgsl|let int_scale = 32.0;|let int_scale = 256.0;|stress|far_from_the_origin|ray offset of 256 ULPs (2 units at 1e5)"
 )
 

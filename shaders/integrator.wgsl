@@ -86,6 +86,12 @@ struct ShadingContext {
     bsdf: BsdfParams,
 }
 
+// The shading frame, the direction to the viewer in it and the BSDF at a surface the camera sees.
+fn shading_context(s: SurfaceHit, ray_dir: vec3f) -> ShadingContext {
+    let f = frame_from_normal(s.ns);
+    return ShadingContext(s, f, frame_to_local(f, -ray_dir), bsdf_params(textured_material(materials[s.material], s.uvs)));
+}
+
 // How a light sample is weighted (SamplePlan.light_weighting).
 const LIGHT_ALONE: u32 = 0u;
 // Against sampling the whole BSDF (mis).
@@ -422,8 +428,7 @@ fn estimate_radiance(ray: Ray, rng: ptr<function, u32>, rays: ptr<function, u32>
         if hit.found {
             let s = surface_at(hit, d.wi);
             if at_camera {
-                let f = frame_from_normal(s.ns);
-                c = ShadingContext(s, f, frame_to_local(f, -ray.dir), bsdf_params(textured_material(materials[s.material], s.uvs)));
+                c = shading_context(s, ray.dir);
                 if frame.hide_emitters == 0u {
                     e.emitted = emitted_radiance(s);
                 }
@@ -501,5 +506,24 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
     if write_aovs {
         aov_light[pixel] = sum_light;
         aov_brdf[pixel] = sum_brdf;
+    }
+}
+
+// One camera sample's estimate added to its pixel's sums (the wavefront kernels; `render` keeps
+// its sums in registers over its samples, in the same order).
+fn add_sample(pixel: u32, e: Estimate, rays: u32) {
+    let l = e.emitted + e.light + e.brdf;
+    counters[pixel].rays += rays;
+    // A non-finite sample is counted and dropped (as a zero), never accumulated.
+    if is_finite3(l) && is_finite3(l * l) {
+        accum[pixel] += vec4f(l, 1.0);
+        accum_sq[pixel] += vec4f(l * l, 0.0);
+        if HAS_AOVS && frame.write_aovs != 0u {
+            aov_light[pixel] += vec4f(e.light, 0.0);
+            aov_brdf[pixel] += vec4f(e.emitted + e.brdf, luminance(e.emitted));
+        }
+    } else {
+        accum[pixel].w += 1.0;
+        counters[pixel].nonfinite += 1u;
     }
 }

@@ -221,3 +221,41 @@ struct PixelCounters {
 // aov_brdf.w sums its luminance.
 @group(0) @binding(11) var<storage, read_write> aov_light: array<vec4f>;
 @group(0) @binding(12) var<storage, read_write> aov_brdf: array<vec4f>;
+
+// Wavefront kernels (shaders/wavefront.wgsl): a camera sample whose direction samples wait for
+// the second kernel, with what the first one found. One per pixel per dispatch at most.
+struct DeferredSample {
+    // Emission seen directly, and the light samples' estimate.
+    emitted: vec3f,
+    pixel: u32,
+    light: vec3f,
+    // The random stream where the light samples left it.
+    rng: u32,
+    // The camera ray's hit.
+    tri: u32,
+    b1: f32,
+    b2: f32,
+    // The sample plan's n (low 16 bits) and m (high 16 bits), and the rays traced so far.
+    plan: u32,
+    rays: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
+}
+
+// A dispatch runs rounds of the wavefront kernels, one camera sample per pixel each: camera
+// sample frame.sample_start + round. `count` samples deferred by this round's first kernel;
+// prepare_direction_pass moves it to `pending` for the second, whose round is `direction_round`.
+struct DeferredHeader {
+    count: atomic<u32>,
+    pending: u32,
+    round: u32,
+    direction_round: u32,
+}
+
+@group(0) @binding(17) var<storage, read_write> deferred: array<DeferredSample>;
+@group(0) @binding(18) var<storage, read_write> deferred_header: DeferredHeader;
+// The workgroup counts of the kernel that takes them: an indirect dispatch's arguments, written
+// by prepare_direction_pass. That kernel's own bind group has a placeholder here, since a buffer
+// may not be bound for writing where the same dispatch reads its arguments.
+@group(0) @binding(19) var<storage, read_write> deferred_dispatch: array<u32, 3>;

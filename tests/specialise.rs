@@ -8,7 +8,7 @@ use glam::{Mat4, Vec3};
 use std::time::Duration;
 use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData, Punctual};
 use veach::features::KernelKey;
-use veach::{RenderSettings, Strategy};
+use veach::{Execution, RenderSettings, Strategy};
 
 fn point_lit_plane() -> veach::Scene {
     let mut g = GltfBuilder::new();
@@ -62,6 +62,53 @@ fn specialised_kernels_render_the_generic_kernels_image() {
                     let (a, b) = (special.contributions.unwrap(), generic.contributions.unwrap());
                     assert_eq!(a.light, b.light, "{name} {strategy:?}: light contributions differ");
                     assert_eq!(a.brdf, b.brdf, "{name} {strategy:?}: BRDF contributions differ");
+                }
+            }
+        }
+    }
+}
+
+/// The wavefront kernels (shaders/wavefront.wgsl) take the same samples from the same random
+/// streams as the megakernel, only in other kernels, so their images, contribution images, ray
+/// and non-finite counts are identical; also when a dispatch is a band of rows (a short dispatch
+/// target) and when it runs several rounds (several camera samples).
+#[test]
+fn wavefront_kernels_render_the_megakernels_image() {
+    for (name, scene) in [
+        ("cornell-box", shipped_scene("cornell-box")),
+        ("veach-mis", shipped_scene("veach-mis")),
+        ("textured", shipped_scene("textured")),
+        ("point-lit plane", point_lit_plane()),
+    ] {
+        let camera = scene.camera(None).unwrap();
+        let gpu_scene = upload(&scene);
+        for strategy in Strategy::ALL {
+            for (write_aovs, dispatch_target) in [(false, Duration::from_secs(1)), (true, Duration::from_nanos(1))] {
+                let settings = RenderSettings {
+                    width: 24,
+                    height: 16,
+                    spp: 3,
+                    strategy,
+                    light_samples: 2,
+                    brdf_samples: 2,
+                    write_aovs,
+                    dispatch_target,
+                    seed: 5,
+                    execution: Execution::Megakernel,
+                    ..Default::default()
+                };
+                let mega = render(&gpu_scene, &settings, &camera);
+                let wave = render(&gpu_scene, &RenderSettings { execution: Execution::Wavefront, ..settings }, &camera);
+                assert!(!mega.kernel.wavefront && wave.kernel.wavefront);
+                let what = format!("{name} {strategy:?} aovs {write_aovs}");
+                assert_eq!(wave.sum, mega.sum, "{what}: images differ");
+                assert_eq!(wave.sum_sq, mega.sum_sq, "{what}: sums of squares differ");
+                assert_eq!((wave.rays, wave.nonfinite_samples), (mega.rays, mega.nonfinite_samples), "{what}");
+                assert!(mega.rays > 0, "{what}: no rays");
+                if write_aovs {
+                    let (a, b) = (wave.contributions.unwrap(), mega.contributions.unwrap());
+                    assert_eq!(a.light, b.light, "{what}: light contributions differ");
+                    assert_eq!(a.brdf, b.brdf, "{what}: BRDF contributions differ");
                 }
             }
         }

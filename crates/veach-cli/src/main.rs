@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
-use veach::{GpuContext, Heuristic, LightSampling, LightSelection, RenderSettings, Renderer, Strategy};
+use veach::{GpuContext, Execution, Heuristic, LightSampling, LightSelection, RenderSettings, Renderer, Strategy};
 
 #[derive(Parser)]
 #[command(
@@ -134,6 +134,13 @@ enum LightSamplingArg {
 }
 
 #[derive(Clone, Copy, ValueEnum)]
+enum ExecutionArg {
+    Auto,
+    Megakernel,
+    Wavefront,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
 enum SelectionArg {
     /// Sample every light (the estimator sums over lights)
     Each,
@@ -220,6 +227,10 @@ struct RenderArgs {
     /// Use the generic kernel instead of one specialised to the scene's features and strategy
     #[arg(long)]
     no_specialise: bool,
+    /// One kernel per camera sample, or light samples in one and the direction samples of the
+    /// points that take some in a second (auto: wavefront for mis-lobes on glossy scenes)
+    #[arg(long, value_enum, default_value_t = ExecutionArg::Auto)]
+    execution: ExecutionArg,
 }
 
 #[derive(clap::Args)]
@@ -425,6 +436,11 @@ fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
         hide_emitters: args.hide_emitters,
         write_aovs: !args.aov.is_empty(),
         specialise: !args.no_specialise,
+        execution: match args.execution {
+            ExecutionArg::Auto => Execution::Auto,
+            ExecutionArg::Megakernel => Execution::Megakernel,
+            ExecutionArg::Wavefront => Execution::Wavefront,
+        },
         ..Default::default()
     })
 }

@@ -5,8 +5,9 @@
 use crate::error::{Error, Result};
 use crate::features::KernelKey;
 use crate::gpu::context::GpuContext;
-use crate::gpu::layout::{FrameParams, PixelCounters, WORKGROUP_SIZE};
-use crate::render::{Contributions, GpuScene, GpuTimer, Kernel, RenderOutput, RenderSettings, Renderer, read_buffer};
+use crate::gpu::bindings;
+use crate::gpu::layout::{DEFERRED_WORKGROUP, DeferredSample, FrameParams, PixelCounters, WORKGROUP_SIZE};
+use crate::render::{Contributions, Execution, GpuScene, GpuTimer, Kernel, RenderOutput, RenderSettings, Renderer, read_buffer};
 use crate::scene::Camera;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -25,6 +26,7 @@ pub struct Accumulation {
     counters: wgpu::Buffer,
     aov_light: wgpu::Buffer,
     aov_brdf: wgpu::Buffer,
+    wavefront: Option<WavefrontQueue>,
     timer: Option<GpuTimer>,
     /// Next dispatch starts at this camera sample and row.
     sample_start: u32,
@@ -36,6 +38,17 @@ pub struct Accumulation {
     render_time: Duration,
     gpu_time: Duration,
     dispatches: u32,
+}
+
+/// What the wavefront kernels add: the deferred samples' count (cleared before each dispatch),
+/// the direction kernel's indirect dispatch arguments, that kernel's bind group (a placeholder
+/// where the arguments are bound for the others), and how many pixels a dispatch may cover
+/// (one deferred sample each at most).
+struct WavefrontQueue {
+    header: wgpu::Buffer,
+    dispatch_args: wgpu::Buffer,
+    direction_bind_group: wgpu::BindGroup,
+    capacity: u64,
 }
 
 impl Accumulation {
@@ -84,11 +97,55 @@ impl Accumulation {
         });
 
         let outputs = [&accum, &accum_sq, &counters, &aov_light, &aov_brdf];
-        let key =
-            if settings.specialise { KernelKey::specialised(&scene.features, settings) } else { KernelKey::generic() };
+        let key = if settings.specialise {
+            KernelKey::specialised(&scene.features, settings)
+        } else {
+            // The generic kernel is the megakernel unless the wavefront is asked for by name.
+            KernelKey { wavefront: settings.execution == Execution::Wavefront, ..KernelKey::generic() }
+        };
+        // The deferred samples of one dispatch: a band of rows, each pixel once, within the
+        // binding size and the direction kernel's one-dimensional indirect dispatch.
+        let sample_bytes = std::mem::size_of::<DeferredSample>() as u64;
+        let deferred_capacity = pixels
+            .min(max_binding / sample_bytes)
+            .min(device.limits().max_compute_workgroups_per_dimension as u64 * DEFERRED_WORKGROUP as u64);
         let creation_start = Instant::now();
         let (kernel, created) = renderer.kernel(key)?;
-        let bind_group = renderer.bind_group(&kernel, &params_buffer, scene, &outputs, &[]);
+        let mut extra: Vec<(u32, &wgpu::Buffer)> = Vec::new();
+        let wavefront_buffers = if key.wavefront {
+            if deferred_capacity < w as u64 {
+                return Err(Error::Options(format!("width {w} exceeds what a wavefront dispatch can hold")));
+            }
+            let small = |label: &str, usage: wgpu::BufferUsages| {
+                device.create_buffer(&wgpu::BufferDescriptor {
+                    label: Some(label),
+                    size: 16,
+                    usage: wgpu::BufferUsages::STORAGE | usage,
+                    mapped_at_creation: false,
+                })
+            };
+            Some((
+                zeroed("deferred samples", deferred_capacity * sample_bytes),
+                small("deferred header", wgpu::BufferUsages::COPY_DST),
+                small("deferred dispatch", wgpu::BufferUsages::INDIRECT),
+                small("placeholder", wgpu::BufferUsages::empty()),
+            ))
+        } else {
+            None
+        };
+        let mut direction_bind_group = None;
+        if let Some((samples, header, dispatch_args, placeholder)) = &wavefront_buffers {
+            extra = vec![(bindings::DEFERRED, samples), (bindings::DEFERRED_HEADER, header)];
+            let mut direction_extra = extra.clone();
+            direction_extra.push((bindings::DEFERRED_DISPATCH, placeholder));
+            direction_bind_group =
+                Some(renderer.bind_group(&kernel, &params_buffer, scene, &outputs, &direction_extra));
+            extra.push((bindings::DEFERRED_DISPATCH, dispatch_args));
+        }
+        let bind_group = renderer.bind_group(&kernel, &params_buffer, scene, &outputs, &extra);
+        let wavefront = wavefront_buffers.zip(direction_bind_group).map(|((_, header, dispatch_args, _), bg)| {
+            WavefrontQueue { header, dispatch_args, direction_bind_group: bg, capacity: deferred_capacity }
+        });
         let params = renderer.frame_params(scene, settings, camera);
         let mut acc = Accumulation {
             gpu: gpu.clone(),
@@ -104,6 +161,7 @@ impl Accumulation {
             counters,
             aov_light,
             aov_brdf,
+            wavefront,
             timer: gpu.has_timestamps.then(|| GpuTimer::new(&gpu.device, &gpu.queue)),
             sample_start: 0,
             row_start: 0,
@@ -157,7 +215,10 @@ impl Accumulation {
         }
         let (w, h) = (self.settings.width, self.settings.height);
         let pixels = w as u64 * h as u64;
-        let max_rows = self.gpu.device.limits().max_compute_workgroups_per_dimension * WORKGROUP_SIZE.1;
+        let mut max_rows = self.gpu.device.limits().max_compute_workgroups_per_dimension * WORKGROUP_SIZE.1;
+        if let Some(q) = &self.wavefront {
+            max_rows = max_rows.min((q.capacity / w as u64) as u32);
+        }
         // Start small, to measure the cost safely; then size the dispatch to `target`.
         // Never more than 4× the last dispatch's work, so one misleading measurement (a
         // dispatch that waited behind other work, say) cannot size a dispatch of minutes.
@@ -165,7 +226,7 @@ impl Accumulation {
             None => (w as u64 * 8).min(pixels),
             Some(c) => ((target.as_secs_f64() / c) as u64).clamp(w as u64, 4 * self.last_work.max(w as u64)),
         };
-        let (rows, samples) = if self.row_start == 0 && target_work >= pixels {
+        let (rows, samples) = if self.row_start == 0 && target_work >= pixels && h <= max_rows {
             let k = (target_work / pixels).clamp(1, (self.settings.spp - self.sample_start) as u64);
             (h, k as u32)
         } else {
@@ -198,6 +259,9 @@ impl Accumulation {
         queue.write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
         let timer = self.timer.as_ref().filter(|_| timed);
         let mut encoder = device.create_command_encoder(&Default::default());
+        if let Some(q) = &self.wavefront {
+            encoder.clear_buffer(&q.header, 0, None);
+        }
         {
             let mut pass = encoder.begin_compute_pass(&wgpu::ComputePassDescriptor {
                 label: Some("render"),
@@ -206,7 +270,23 @@ impl Accumulation {
             pass.set_pipeline(&self.kernel.pipeline);
             pass.set_bind_group(0, &self.bind_group, &[]);
             let groups_y = rows.div_ceil(WORKGROUP_SIZE.1).max(1);
-            pass.dispatch_workgroups(self.settings.width.div_ceil(WORKGROUP_SIZE.0), groups_y, 1);
+            let groups_x = self.settings.width.div_ceil(WORKGROUP_SIZE.0);
+            match (&self.kernel.wavefront, &self.wavefront) {
+                (Some((prepare, direction)), Some(q)) => {
+                    // One round of the three kernels per camera sample (shaders/wavefront.wgsl).
+                    for _ in 0..samples.max(1) {
+                        pass.set_pipeline(&self.kernel.pipeline);
+                        pass.set_bind_group(0, &self.bind_group, &[]);
+                        pass.dispatch_workgroups(groups_x, groups_y, 1);
+                        pass.set_pipeline(prepare);
+                        pass.dispatch_workgroups(1, 1, 1);
+                        pass.set_pipeline(direction);
+                        pass.set_bind_group(0, &q.direction_bind_group, &[]);
+                        pass.dispatch_workgroups_indirect(&q.dispatch_args, 0);
+                    }
+                }
+                _ => pass.dispatch_workgroups(groups_x, groups_y, 1),
+            }
         }
         if let Some(t) = timer {
             t.resolve(&mut encoder);

@@ -56,6 +56,31 @@ pub enum LightSampling {
     SolidAngle,
 }
 
+/// How a camera sample's work is split over kernels.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Execution {
+    /// The wavefront kernels for mis-lobes on scenes with glossy lobes, where only some points
+    /// take direction samples; one kernel otherwise (docs/performance.md, "Megakernel against
+    /// wavefront").
+    #[default]
+    Auto,
+    /// `render`: the camera ray, light samples and direction samples in one kernel.
+    Megakernel,
+    /// The light samples in one kernel; the points that take direction samples queued for a
+    /// second, which takes them (shaders/wavefront.wgsl).
+    Wavefront,
+}
+
+impl Execution {
+    pub fn name(self) -> &'static str {
+        match self {
+            Execution::Auto => "auto",
+            Execution::Megakernel => "megakernel",
+            Execution::Wavefront => "wavefront",
+        }
+    }
+}
+
 impl LightSampling {
     pub fn name(self) -> &'static str {
         match self {
@@ -117,6 +142,8 @@ pub struct RenderSettings {
     pub hide_emitters: bool,
     /// Use a kernel specialised to the scene's features and the strategy (else the generic one).
     pub specialise: bool,
+    /// One kernel per camera sample, or the wavefront split (shaders/wavefront.wgsl).
+    pub execution: Execution,
 }
 
 impl RenderSettings {
@@ -154,6 +181,7 @@ impl Default for RenderSettings {
             write_aovs: false,
             hide_emitters: false,
             specialise: true,
+            execution: Execution::Auto,
         }
     }
 }
@@ -296,7 +324,10 @@ pub struct GpuScene {
 /// `RenderOutput::kernel_creation`, outside the render time.
 pub(crate) struct Kernel {
     pub(crate) textures: bool,
+    /// `render`, or the wavefront's first kernel (`render_light_pass`)...
     pub(crate) pipeline: wgpu::ComputePipeline,
+    /// ...followed by `prepare_direction_pass` and `render_direction_pass`.
+    pub(crate) wavefront: Option<(wgpu::ComputePipeline, wgpu::ComputePipeline)>,
     pub(crate) layout: wgpu::BindGroupLayout,
 }
 
@@ -331,17 +362,22 @@ impl Renderer {
         if let Some(k) = self.kernels.lock().expect("kernel cache").get(&key) {
             return Ok((k.clone(), false));
         }
-        let (pipeline, layout) = bindings::create_pipeline(
+        let entry_points: &[&str] =
+            if key.wavefront { &shaders::WAVEFRONT_ENTRY_POINTS } else { &[shaders::RENDER_ENTRY_POINT] };
+        let extra = bindings::ExtraBindings { textures: key.textures, deferred: key.wavefront, test_io: false };
+        let (pipelines, layout) = bindings::create_pipelines(
             &self.gpu.device,
             "veach render kernel",
             shaders::render_kernel_source(key.textures),
-            shaders::RENDER_ENTRY_POINT,
-            key.textures,
-            false,
+            entry_points,
+            extra,
             &key.constants(),
         )
         .map_err(Error::Gpu)?;
-        let kernel = Arc::new(Kernel { textures: key.textures, pipeline, layout });
+        let mut pipelines = pipelines.into_iter();
+        let pipeline = pipelines.next().expect("one pipeline per entry point");
+        let wavefront = pipelines.next().zip(pipelines.next());
+        let kernel = Arc::new(Kernel { textures: key.textures, pipeline, wavefront, layout });
         self.kernels.lock().expect("kernel cache").insert(key, kernel.clone());
         Ok((kernel, true))
     }
@@ -411,14 +447,14 @@ impl Renderer {
     }
 
     /// The bind group of a dispatch, in the binding order of `gpu::bindings`: frame parameters,
-    /// the scene, the five output buffers and (test kernels only) the test bindings.
+    /// the scene, the five output buffers and `extra` (the wavefront's queue, or the test kernels' bindings).
     pub(crate) fn bind_group(
         &self,
         kernel: &Kernel,
         frame: &wgpu::Buffer,
         scene: &GpuScene,
         outputs: &[&wgpu::Buffer; 5],
-        test_io: &[(u32, &wgpu::Buffer)],
+        extra: &[(u32, &wgpu::Buffer)],
     ) -> wgpu::BindGroup {
         let layout = &kernel.layout;
         let mut entries = vec![wgpu::BindGroupEntry { binding: bindings::FRAME, resource: frame.as_entire_binding() }];
@@ -453,7 +489,7 @@ impl Renderer {
                 resource: b.as_entire_binding(),
             });
         }
-        for (binding, b) in test_io {
+        for (binding, b) in extra {
             entries.push(wgpu::BindGroupEntry { binding: *binding, resource: b.as_entire_binding() });
         }
         self.gpu.device.create_bind_group(&wgpu::BindGroupDescriptor {

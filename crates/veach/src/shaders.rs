@@ -15,6 +15,7 @@ pub const SHADER_FILES: &[(&str, &str)] = &[
     ("lights.wgsl", include_str!("../../../shaders/lights.wgsl")),
     ("mis.wgsl", include_str!("../../../shaders/mis.wgsl")),
     ("integrator.wgsl", include_str!("../../../shaders/integrator.wgsl")),
+    ("wavefront.wgsl", include_str!("../../../shaders/wavefront.wgsl")),
 ];
 
 const TEXTURES: (&str, &str) = ("textures", "");
@@ -33,6 +34,8 @@ pub fn test_kernel_source() -> String {
 
 /// Name of the compute entry point in `integrator.wgsl`.
 pub const RENDER_ENTRY_POINT: &str = "render";
+/// The wavefront kernels' entry points in `wavefront.wgsl`, in dispatch order.
+pub const WAVEFRONT_ENTRY_POINTS: [&str; 3] = ["render_light_pass", "prepare_direction_pass", "render_direction_pass"];
 
 /// The whole kernel source. Each file is preceded by a marker comment so that a line number in
 /// a WGSL error can be traced back to its file.

@@ -13,6 +13,11 @@ pub const OUTPUT_COUNT: u32 = 5;
 /// emitter_source (read-only storage).
 pub const TEXTURES_FIRST: u32 = 13;
 pub const TEXTURES_COUNT: u32 = 4;
+/// Wavefront kernels only: the deferred samples, their count and the indirect dispatch
+/// arguments of the kernel that takes them (read-write storage).
+pub const DEFERRED: u32 = 17;
+pub const DEFERRED_HEADER: u32 = 18;
+pub const DEFERRED_DISPATCH: u32 = 19;
 /// Test kernels only: params (uniform), input (read-only storage), output (read-write).
 pub const TEST_PARAMS: u32 = 20;
 pub const TEST_INPUT: u32 = 21;
@@ -33,14 +38,30 @@ fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     entry(binding, wgpu::BufferBindingType::Storage { read_only })
 }
 
-/// Layout entries of the render kernel; `with_textures` adds the texture bindings and
-/// `with_test_io` the test kernels' bindings.
-pub fn layout_entries(with_textures: bool, with_test_io: bool) -> Vec<wgpu::BindGroupLayoutEntry> {
+/// Which optional bindings a kernel's layout has besides the frame, scene and outputs.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ExtraBindings {
+    /// The texture module's bindings (13..=16).
+    pub textures: bool,
+    /// The wavefront kernels' deferred samples (17..=19).
+    pub deferred: bool,
+    /// The test kernels' bindings (20..=22).
+    pub test_io: bool,
+}
+
+/// Layout entries of a render or test kernel.
+pub fn layout_entries(extra: ExtraBindings) -> Vec<wgpu::BindGroupLayoutEntry> {
+    let ExtraBindings { textures: with_textures, deferred: with_deferred, test_io: with_test_io } = extra;
     let mut entries = vec![storage(FRAME, true)];
     entries.extend((SCENE_FIRST..SCENE_FIRST + SCENE_COUNT).map(|b| storage(b, true)));
     entries.extend((OUTPUT_FIRST..OUTPUT_FIRST + OUTPUT_COUNT).map(|b| storage(b, false)));
     if with_textures {
         entries.extend((TEXTURES_FIRST..TEXTURES_FIRST + TEXTURES_COUNT).map(|b| storage(b, true)));
+    }
+    if with_deferred {
+        entries.push(storage(DEFERRED, false));
+        entries.push(storage(DEFERRED_HEADER, false));
+        entries.push(storage(DEFERRED_DISPATCH, false));
     }
     if with_test_io {
         entries.push(entry(TEST_PARAMS, wgpu::BufferBindingType::Uniform));
@@ -50,21 +71,20 @@ pub fn layout_entries(with_textures: bool, with_test_io: bool) -> Vec<wgpu::Bind
     entries
 }
 
-/// A compute pipeline for `entry_point` of `source`, with the explicit layout above.
+/// Compute pipelines for `entry_points` of `source`, sharing one explicit layout (above).
 /// Validation errors are returned, not raised as device errors.
-pub fn create_pipeline(
+pub fn create_pipelines(
     device: &wgpu::Device,
     label: &str,
     source: String,
-    entry_point: &str,
-    with_textures: bool,
-    with_test_io: bool,
+    entry_points: &[&str],
+    extra: ExtraBindings,
     constants: &[(&str, f64)],
-) -> Result<(wgpu::ComputePipeline, wgpu::BindGroupLayout), String> {
+) -> Result<(Vec<wgpu::ComputePipeline>, wgpu::BindGroupLayout), String> {
     let scope = device.push_error_scope(wgpu::ErrorFilter::Validation);
     let bind_group_layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some(label),
-        entries: &layout_entries(with_textures, with_test_io),
+        entries: &layout_entries(extra),
     });
     let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label: Some(label),
@@ -75,16 +95,21 @@ pub fn create_pipeline(
         label: Some(label),
         source: wgpu::ShaderSource::Wgsl(source.into()),
     });
-    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
-        label: Some(label),
-        layout: Some(&pipeline_layout),
-        module: &module,
-        entry_point: Some(entry_point),
-        compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
-        cache: None,
-    });
+    let pipelines = entry_points
+        .iter()
+        .map(|entry_point| {
+            device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                label: Some(entry_point),
+                layout: Some(&pipeline_layout),
+                module: &module,
+                entry_point: Some(entry_point),
+                compilation_options: wgpu::PipelineCompilationOptions { constants, ..Default::default() },
+                cache: None,
+            })
+        })
+        .collect();
     if let Some(e) = pollster::block_on(scope.pop()) {
         return Err(format!("{label}: kernel creation failed: {e}"));
     }
-    Ok((pipeline, bind_group_layout))
+    Ok((pipelines, bind_group_layout))
 }

@@ -30,6 +30,8 @@ pub const NO_TEXTURE: u32 = u32::MAX;
 
 /// Threads per workgroup of the `render` entry point (`@workgroup_size(8, 8, 1)`).
 pub const WORKGROUP_SIZE: (u32, u32) = (8, 8);
+/// Threads per workgroup of `render_direction_pass` (shaders/wavefront.wgsl's DEFERRED_WORKGROUP).
+pub const DEFERRED_WORKGROUP: u32 = 64;
 
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
@@ -206,6 +208,34 @@ pub struct PixelCounters {
     pub nonfinite: u32,
 }
 
+/// A camera sample whose direction samples wait for the wavefront's second kernel
+/// (`shaders/wavefront.wgsl`); written and read on the GPU only.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct DeferredSample {
+    pub emitted: [f32; 3],
+    pub pixel: u32,
+    pub light: [f32; 3],
+    pub rng: u32,
+    pub tri: u32,
+    pub b1: f32,
+    pub b2: f32,
+    pub plan: u32,
+    pub rays: u32,
+    pub _pad: [u32; 3],
+}
+
+/// The wavefront's rounds: samples deferred, and which camera sample each kernel takes
+/// (shaders/layout.wgsl); zeroed before each dispatch.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct DeferredHeader {
+    pub count: u32,
+    pub pending: u32,
+    pub round: u32,
+    pub direction_round: u32,
+}
+
 /// Name, size and (member, offset) list of a struct.
 pub type StructLayout = (&'static str, usize, Vec<(&'static str, usize)>);
 
@@ -281,5 +311,7 @@ pub fn rust_layouts() -> Vec<StructLayout> {
         layout!(EmitterTriangle { p0, cdf, e1, area, e2, light }),
         layout!(TestParams { routine, count, seed, light_index, wo, point, material }),
         layout!(PixelCounters { rays, nonfinite }),
+        layout!(DeferredSample { emitted, pixel, light, rng, tri, b1, b2, plan, rays }),
+        layout!(DeferredHeader { count, pending, round, direction_round }),
     ]
 }

@@ -37,17 +37,17 @@ const WORKGROUP: u32 = 64;
 
 impl<'a> TestKernel<'a> {
     pub fn new(renderer: &'a Renderer) -> Result<Self> {
-        let (pipeline, layout) = bindings::create_pipeline(
+        let (mut pipelines, layout) = bindings::create_pipelines(
             &renderer.gpu.device,
             "veach test kernels",
             shaders::test_kernel_source(),
-            shaders::TEST_ENTRY_POINT,
-            true,
-            true,
+            &[shaders::TEST_ENTRY_POINT],
+            bindings::ExtraBindings { textures: true, deferred: false, test_io: true },
             &[],
         )
         .map_err(Error::Gpu)?;
-        Ok(TestKernel { renderer, kernel: Kernel { textures: true, pipeline, layout } })
+        let pipeline = pipelines.remove(0);
+        Ok(TestKernel { renderer, kernel: Kernel { textures: true, pipeline, wavefront: None, layout } })
     }
 
     /// Runs `params.routine` over `params.count` items; returns `outputs_per_item` vec4s per item.

@@ -1,0 +1,103 @@
+// wavefront.wgsl: the same estimate as `render` (integrator.wgsl), split into kernels so that
+// each one runs only the code its threads need. On lavapipe a branch costs its code in every
+// thread of the SIMD group, taken or not (docs/performance.md), so a megakernel pays for the
+// direction-sample code at every diffuse point; here it runs only on a compacted queue.
+//
+//   render_light_pass       camera ray, emission, the plan and its light samples; a sample
+//                           without direction samples is added to its pixel, one with some is
+//                           appended to `deferred`.
+//   prepare_direction_pass  one thread: the indirect dispatch arguments for the queue's length;
+//                           empties the queue for the next round.
+//   render_direction_pass   per deferred sample: its m direction samples, then the whole
+//                           sample is added to its pixel.
+// A dispatch runs these three once per camera sample (a round), so that a pixel has at most one
+// deferred sample at a time and the last kernel adds to its sums without atomics.
+// The random stream continues where the light samples left it, so the image is the one
+// `render` makes, sample for sample (tests/wavefront.rs).
+
+@compute @workgroup_size(8, 8, 1)
+fn render_light_pass(@builtin(global_invocation_id) gid: vec3u) {
+    let x = gid.x;
+    let y = frame.row_start + gid.y;
+    if x >= frame.width || gid.y >= frame.row_count || y >= frame.height {
+        return;
+    }
+    let pixel = y * frame.width + x;
+    var rng = rng_seed(pixel, frame.sample_start + deferred_header.round, frame.seed);
+    let ray = camera_ray(vec2u(x, y), rng_next2(&rng));
+    var rays = 1u;
+    var e = Estimate(vec3f(0.0), vec3f(0.0), vec3f(0.0));
+    let hit = trace_closest(ray.origin, ray.dir, RAY_INF);
+    if hit.found {
+        let c = shading_context(surface_at(hit, ray.dir), ray.dir);
+        if frame.hide_emitters == 0u {
+            e.emitted = emitted_radiance(c.s);
+        }
+        let plan = sample_plan(c);
+        e.light = estimate_light_samples(c, plan, &rng, &rays);
+        if plan.m > 0u {
+            let slot = atomicAdd(&deferred_header.count, 1u);
+            deferred[slot] = DeferredSample(e.emitted, pixel, e.light, rng, hit.tri, hit.b1, hit.b2, plan.n | (plan.m << 16u), rays, 0u, 0u, 0u);
+            return;
+        }
+    }
+    add_sample(pixel, e, rays);
+}
+
+// Threads per workgroup of render_direction_pass (crates/veach/src/gpu/layout.rs has the same).
+const DEFERRED_WORKGROUP: u32 = 64u;
+
+@compute @workgroup_size(1, 1, 1)
+fn prepare_direction_pass() {
+    let count = atomicExchange(&deferred_header.count, 0u);
+    deferred_header.pending = count;
+    deferred_header.direction_round = deferred_header.round;
+    deferred_header.round += 1u;
+    deferred_dispatch[0] = (count + DEFERRED_WORKGROUP - 1u) / DEFERRED_WORKGROUP;
+    deferred_dispatch[1] = 1u;
+    deferred_dispatch[2] = 1u;
+}
+
+// The m direction samples of a deferred camera sample: the samples estimate_radiance's loop
+// takes after the camera hit, in the same order from the same random stream.
+fn estimate_direction_samples(c: ShadingContext, plan: SamplePlan, rng: ptr<function, u32>, rays: ptr<function, u32>) -> vec3f {
+    var sum = vec3f(0.0);
+    for (var k = 0u; k < plan.m; k++) {
+        let d = sample_direction(c, rng);
+        if !d.valid {
+            continue;
+        }
+        let origin = offset_ray_origin(c.s.p, c.s.ng, d.wi);
+        let t_max = emitter_reach(origin, d.wi);
+        if t_max <= 0.0 {
+            continue;
+        }
+        *rays += 1u;
+        let hit = trace_closest(origin, d.wi, t_max);
+        if hit.found {
+            sum += direction_sample_value(c, d, plan, hit.tri, surface_at(hit, d.wi));
+        }
+    }
+    return sum / f32(plan.m);
+}
+
+@compute @workgroup_size(64, 1, 1)
+fn render_direction_pass(@builtin(global_invocation_id) gid: vec3u) {
+    let i = gid.x;
+    if i >= deferred_header.pending {
+        return;
+    }
+    let q = deferred[i];
+    // The camera ray again, from the start of the sample's stream.
+    let x = q.pixel % frame.width;
+    let y = q.pixel / frame.width;
+    var camera_rng = rng_seed(q.pixel, frame.sample_start + deferred_header.direction_round, frame.seed);
+    let ray = camera_ray(vec2u(x, y), rng_next2(&camera_rng));
+    let hit = Hit(0.0, q.b1, q.b2, q.tri, true);
+    let c = shading_context(surface_at(hit, ray.dir), ray.dir);
+    let plan = SamplePlan(q.plan & 0xffffu, LIGHT_ALONE, q.plan >> 16u);
+    var rng = q.rng;
+    var rays = q.rays;
+    let brdf = estimate_direction_samples(c, plan, &rng, &rays);
+    add_sample(q.pixel, Estimate(q.emitted, q.light, brdf), rays);
+}
