@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
-use veach::{GpuContext, Execution, Heuristic, LightSampling, LightSelection, RenderSettings, Renderer, Strategy};
+use veach::{Execution, GpuContext, Heuristic, LightSampling, LightSelection, RenderSettings, Renderer, Strategy};
 
 #[derive(Parser)]
 #[command(
@@ -228,7 +228,8 @@ struct RenderArgs {
     #[arg(long)]
     no_specialise: bool,
     /// One kernel per camera sample, or light samples in one and the direction samples of the
-    /// points that take some in a second (auto: wavefront for mis-lobes on glossy scenes)
+    /// points that take some in a second (auto: whichever measured faster: wavefront for light and
+    /// mis-lobes, and for every strategy on textured scenes)
     #[arg(long, value_enum, default_value_t = ExecutionArg::Auto)]
     execution: ExecutionArg,
 }
@@ -560,9 +561,16 @@ fn render(args: RenderArgs) -> Result<()> {
     let renderer = Renderer::new(gpu)?;
     let gpu_scene = renderer.upload_scene(&scene)?;
     say(format!(
-        "scene features: {}; kernel: {}",
+        "scene features: {}; kernel: {}{}",
         gpu_scene.features.describe(),
-        if settings.specialise { "specialised" } else { "generic" }
+        if settings.specialise { "specialised" } else { "generic" },
+        if settings.specialise && veach::features::uses_wavefront(&gpu_scene.features, &settings)
+            || settings.execution == Execution::Wavefront
+        {
+            ", wavefront"
+        } else {
+            ""
+        }
     ));
 
     let stop = Arc::new(AtomicBool::new(false));

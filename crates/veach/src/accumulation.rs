@@ -4,10 +4,12 @@
 
 use crate::error::{Error, Result};
 use crate::features::KernelKey;
-use crate::gpu::context::GpuContext;
 use crate::gpu::bindings;
+use crate::gpu::context::GpuContext;
 use crate::gpu::layout::{DEFERRED_WORKGROUP, DeferredSample, FrameParams, PixelCounters, WORKGROUP_SIZE};
-use crate::render::{Contributions, Execution, GpuScene, GpuTimer, Kernel, RenderOutput, RenderSettings, Renderer, read_buffer};
+use crate::render::{
+    Contributions, Execution, GpuScene, GpuTimer, Kernel, RenderOutput, RenderSettings, Renderer, read_buffer,
+};
 use crate::scene::Camera;
 use std::sync::Arc;
 use std::time::{Duration, Instant};

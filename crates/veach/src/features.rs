@@ -192,15 +192,21 @@ pub fn effective_strategy(features: &SceneFeatures, settings: &RenderSettings) -
     (settings.strategy, settings.light_samples, settings.brdf_samples)
 }
 
-/// Whether a render runs the wavefront kernels: as asked, or with `Execution::Auto` for
-/// mis-lobes where some points have glossy lobes. There the diffuse points, which take light
-/// samples only, skip the direction-sample code that a megakernel runs under a mask on lavapipe
-/// (0.80-0.87x the time); where every point takes direction samples (uniform, brdf, mis) the
-/// queue costs more than it saves (up to 1.5x), and light sampling gains nothing measurable.
+/// Whether a render runs the wavefront kernels: as asked, or with `Execution::Auto` where they
+/// measured faster on lavapipe (docs/performance.md, "Megakernel against wavefront"; 256×256,
+/// 32 spp, the three shipped scenes): for light sampling and mis-lobes, whose first kernel
+/// leaves out the direction-sample code that the megakernel runs under a mask at every point
+/// (0.78-0.96x the time), and on textured scenes for every strategy, where the megakernel also
+/// runs the camera hit's texture lookups under a mask on every direction sample's pass
+/// (0.75-0.88x). Where every point takes direction samples and there are no textures (uniform,
+/// brdf, mis) the queue costs more than it saves: 1.02-1.46x.
 pub fn uses_wavefront(features: &SceneFeatures, settings: &RenderSettings) -> bool {
     match settings.execution {
         Execution::Megakernel => false,
         Execution::Wavefront => true,
-        Execution::Auto => effective_strategy(features, settings).0 == Strategy::MisLobes,
+        Execution::Auto => match effective_strategy(features, settings).0 {
+            Strategy::Light | Strategy::MisLobes => true,
+            Strategy::Uniform | Strategy::Brdf | Strategy::Mis => features.textures(),
+        },
     }
 }

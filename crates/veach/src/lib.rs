@@ -24,6 +24,6 @@ pub use accumulation::Accumulation;
 pub use error::{Error, Result};
 pub use gpu::context::GpuContext;
 pub use render::{
-    GpuScene, Execution, Heuristic, LightSampling, LightSelection, RenderOutput, RenderSettings, Renderer, Strategy,
+    Execution, GpuScene, Heuristic, LightSampling, LightSelection, RenderOutput, RenderSettings, Renderer, Strategy,
 };
 pub use scene::{Scene, load_gltf};

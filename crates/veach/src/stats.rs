@@ -99,6 +99,10 @@ pub fn render_stats(
         features: gpu_scene.features,
         kernel: if out.kernel == crate::features::KernelKey::generic() {
             "generic".into()
+        } else if out.kernel
+            == (crate::features::KernelKey { wavefront: true, ..crate::features::KernelKey::generic() })
+        {
+            "generic, wavefront".into()
         } else {
             format!("specialised {:?}", out.kernel)
         },
