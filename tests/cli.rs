@@ -278,11 +278,14 @@ fn scale_writes_a_well_formed_csv() {
     let mut lines = csv.lines();
     assert_eq!(
         lines.next().unwrap(),
-        "sweep,triangles,lights,load_s,bvh_build_s,bvh_nodes,gpu_scene_bytes,bytes_per_triangle,\
+        "sweep,strategy,triangles,lights,load_s,bvh_build_s,bvh_nodes,gpu_scene_bytes,bytes_per_triangle,\
          bvh_bytes_per_triangle,render_s,spp,rays,rays_per_s"
     );
+    // The strategy column, then the rest without it: numbers after the sweep's name.
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
-    assert_eq!(rows.len(), 4);
+    let strategies: Vec<&str> = rows.iter().map(|r| r[1]).collect();
+    assert_eq!(strategies, ["mis-power 1+1", "mis-power 1+1", "mis-power 1+1", "light 2", "mis-power 1+1", "light 2"]);
+    let rows: Vec<Vec<&str>> = rows.into_iter().map(|r| [&r[..1], &r[2..]].concat()).collect();
     let num = |v: &str| -> f64 { v.parse().unwrap_or_else(|_| panic!("not a number: {v}")) };
     for r in &rows {
         assert_eq!(r.len(), 13, "{r:?}");
@@ -300,7 +303,7 @@ fn scale_writes_a_well_formed_csv() {
         assert_eq!(r[2], "1");
     }
     // Light sweep: the same 16 grid triangles + 2 floor triangles whatever the light count.
-    for (r, lights) in rows[2..].iter().zip(["1", "9"]) {
+    for (r, lights) in rows[2..].iter().zip(["1", "1", "9", "9"]) {
         assert_eq!((r[0], r[1], r[2]), ("lights", "18", lights), "{r:?}");
     }
 }

@@ -699,7 +699,7 @@ fn scale(args: ScaleArgs) -> Result<()> {
         f.write_all(scale_csv(&rows).as_bytes()).map_err(|e| e.to_string())
     })?;
     println!(
-        "{}x{}, {} spp, MIS 1 + 1, lights by power, median of {} renders\n",
+        "{}x{}, {} spp, MIS 1 + 1 (the light sweep also light sampling, 2 samples), lights by power, median of {} renders\n",
         config.width, config.height, config.spp, config.repeats
     );
     println!("{}", scale_report(&rows));

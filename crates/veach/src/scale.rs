@@ -6,7 +6,7 @@ use crate::assets::scale::{light_scene, triangle_scene};
 use crate::bench::render_seconds;
 use crate::error::{Error, Result};
 use crate::gpu::layout::BvhNode;
-use crate::render::{RenderSettings, Renderer};
+use crate::render::{RenderSettings, Renderer, Strategy};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
@@ -29,6 +29,8 @@ pub struct ScaleConfig {
 pub struct ScaleRow {
     /// "triangles" or "lights": which sweep the row belongs to.
     pub sweep: &'static str,
+    /// The settings it rendered with (`scale_strategies`).
+    pub strategy: &'static str,
     pub triangles: usize,
     pub lights: usize,
     pub load_seconds: f64,
@@ -62,15 +64,30 @@ pub fn scale_settings(config: &ScaleConfig) -> RenderSettings {
     RenderSettings { width: config.width, height: config.height, spp: config.spp, ..RenderSettings::mis_power() }
 }
 
-/// Writes the scene, loads it back as a user's file would be, builds and uploads it, renders it
-/// `repeats` times after one untimed render (the kernel's compile).
+/// What each sweep renders: both sweeps MIS 1 + 1 (`scale_settings`); the light sweep also light
+/// sampling alone, 2 light samples chosen by power, whose cost is all light selection, light
+/// sampling and shadow rays (MIS also traces BRDF rays, which find light only where there are
+/// lights to find: see docs/performance.md).
+pub fn scale_strategies(config: &ScaleConfig, sweep: &str) -> Vec<(&'static str, RenderSettings)> {
+    let mis = scale_settings(config);
+    let mut list = vec![("mis-power 1+1", mis.clone())];
+    if sweep == "lights" {
+        let light = RenderSettings { strategy: Strategy::Light, light_samples: 2, brdf_samples: 0, ..mis };
+        list.push(("light 2", light));
+    }
+    list
+}
+
+/// Writes the scene, loads it back as a user's file would be, builds and uploads it, and for each
+/// of the sweep's settings renders it `repeats` times after one untimed render (the kernel's
+/// compile): one row per setting.
 fn measure_point(
     renderer: &Renderer,
     config: &ScaleConfig,
     sweep: &'static str,
     name: &str,
     builder: crate::assets::gltf_writer::GltfBuilder,
-) -> Result<ScaleRow> {
+) -> Result<Vec<ScaleRow>> {
     let path = config.output.join("scenes").join(format!("{name}.gltf"));
     builder.write(&path)?;
     let load_start = Instant::now();
@@ -78,29 +95,33 @@ fn measure_point(
     let load_seconds = load_start.elapsed().as_secs_f64();
     let camera = scene.camera(None).map_err(|m| Error::scene(&path, m))?;
     let gpu_scene = renderer.upload_scene(&scene)?;
-    let settings = scale_settings(config);
-    renderer.render(&gpu_scene, &RenderSettings { spp: 1, ..settings.clone() }, &camera, &mut |_| true)?;
-    let mut times = Vec::new();
-    let mut rays = 0;
-    for _ in 0..config.repeats.max(1) {
-        let out = renderer.render(&gpu_scene, &settings, &camera, &mut |_| true)?;
-        times.push(render_seconds(&out));
-        rays = out.rays;
-    }
-    times.sort_by(f64::total_cmp);
     let stats = &gpu_scene.stats;
-    Ok(ScaleRow {
-        sweep,
-        triangles: scene.triangles.len(),
-        lights: scene.lights.len(),
-        load_seconds,
-        bvh_build_seconds: stats.bvh_build.as_secs_f64(),
-        bvh_nodes: stats.bvh_nodes,
-        gpu_scene_bytes: stats.gpu_scene_bytes,
-        render_seconds: times[times.len() / 2],
-        spp: settings.spp,
-        rays,
-    })
+    let mut rows = Vec::new();
+    for (strategy, settings) in scale_strategies(config, sweep) {
+        renderer.render(&gpu_scene, &RenderSettings { spp: 1, ..settings.clone() }, &camera, &mut |_| true)?;
+        let mut times = Vec::new();
+        let mut rays = 0;
+        for _ in 0..config.repeats.max(1) {
+            let out = renderer.render(&gpu_scene, &settings, &camera, &mut |_| true)?;
+            times.push(render_seconds(&out));
+            rays = out.rays;
+        }
+        times.sort_by(f64::total_cmp);
+        rows.push(ScaleRow {
+            sweep,
+            strategy,
+            triangles: scene.triangles.len(),
+            lights: scene.lights.len(),
+            load_seconds,
+            bvh_build_seconds: stats.bvh_build.as_secs_f64(),
+            bvh_nodes: stats.bvh_nodes,
+            gpu_scene_bytes: stats.gpu_scene_bytes,
+            render_seconds: times[times.len() / 2],
+            spp: settings.spp,
+            rays,
+        });
+    }
+    Ok(rows)
 }
 
 /// Both sweeps; `progress` hears what is being measured.
@@ -108,11 +129,11 @@ pub fn run_scale(renderer: &Renderer, config: &ScaleConfig, progress: &mut dyn F
     let mut rows = Vec::new();
     for &n in &config.triangles {
         progress(&format!("{n} triangles"));
-        rows.push(measure_point(renderer, config, "triangles", &format!("scale-triangles-{n}"), triangle_scene(n))?);
+        rows.extend(measure_point(renderer, config, "triangles", &format!("scale-triangles-{n}"), triangle_scene(n))?);
     }
     for &k in &config.lights {
         progress(&format!("{k} lights"));
-        rows.push(measure_point(
+        rows.extend(measure_point(
             renderer,
             config,
             "lights",
@@ -125,14 +146,15 @@ pub fn run_scale(renderer: &Renderer, config: &ScaleConfig, progress: &mut dyn F
 
 pub fn scale_csv(rows: &[ScaleRow]) -> String {
     let mut s = String::from(
-        "sweep,triangles,lights,load_s,bvh_build_s,bvh_nodes,gpu_scene_bytes,bytes_per_triangle,\
+        "sweep,strategy,triangles,lights,load_s,bvh_build_s,bvh_nodes,gpu_scene_bytes,bytes_per_triangle,\
          bvh_bytes_per_triangle,render_s,spp,rays,rays_per_s\n",
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "{},{},{},{:.6},{:.6},{},{},{:.2},{:.2},{:.6},{},{},{:.0}",
+            "{},{},{},{},{:.6},{:.6},{},{},{:.2},{:.2},{:.6},{},{},{:.0}",
             r.sweep,
+            r.strategy,
             r.triangles,
             r.lights,
             r.load_seconds,
@@ -176,17 +198,21 @@ pub fn scale_report(rows: &[ScaleRow]) -> String {
         }
     }
     let lights: Vec<&ScaleRow> = rows.iter().filter(|r| r.sweep == "lights").collect();
-    if let Some(first) = lights.first() {
-        let _ = writeln!(s, "\n| lights | triangles | render s | × first | Mrays/s |");
-        let _ = writeln!(s, "|---|---|---|---|---|");
+    if !lights.is_empty() {
+        let _ = writeln!(s, "\n| lights | triangles | strategy | render s | × first | rays | Mrays/s |");
+        let _ = writeln!(s, "|---|---|---|---|---|---|---|");
         for r in &lights {
+            // Relative to the same strategy's first point.
+            let first = lights.iter().find(|f| f.strategy == r.strategy).unwrap_or(r);
             let _ = writeln!(
                 s,
-                "| {} | {} | {:.3} | {:.2} | {:.2} |",
+                "| {} | {} | {} | {:.3} | {:.2} | {} | {:.2} |",
                 r.lights,
                 r.triangles,
+                r.strategy,
                 r.render_seconds,
                 r.render_seconds / first.render_seconds.max(f64::MIN_POSITIVE),
+                r.rays,
                 r.rays_per_second() / 1e6
             );
         }
