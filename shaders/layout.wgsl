@@ -170,14 +170,24 @@ struct Light {
     _pad2: u32,
 }
 
-// A triangle of an area light. `cdf` is the light's area CDF at the end of this triangle.
+// A triangle of an area light, and one bucket of the light's alias table over its triangles by
+// area (crates/veach/src/alias.rs): the bucket keeps this triangle with probability alias_prob,
+// else gives emitter triangle `alias_index` (an index into emitter_tris).
 struct EmitterTriangle {
     p0: vec3f,
-    cdf: f32,
+    alias_prob: f32,
     e1: vec3f,
-    area: f32,
+    alias_index: u32,
     e2: vec3f,
     light: u32,
+}
+
+// Light i chosen by power: its probability, and bucket i of the alias table over the lights.
+struct LightPick {
+    pdf: f32,
+    alias_prob: f32,
+    alias_index: u32,
+    _pad0: u32,
 }
 
 // Parameters of the test kernels (shaders/test_kernels.wgsl).
@@ -209,9 +219,8 @@ struct PixelCounters {
 @group(0) @binding(4) var<storage, read> materials: array<Material>;
 @group(0) @binding(5) var<storage, read> lights: array<Light>;
 @group(0) @binding(6) var<storage, read> emitter_tris: array<EmitterTriangle>;
-// Cumulative light power, normalised: light i is chosen by power with probability
-// light_power_cdf[i] - light_power_cdf[i - 1].
-@group(0) @binding(7) var<storage, read> light_power_cdf: array<f32>;
+// Choosing a light by power (frame.light_selection == SELECT_POWER).
+@group(0) @binding(7) var<storage, read> light_picks: array<LightPick>;
 // Running sums per pixel: (sum of radiance, number of camera samples) and (sum of squares, 0).
 @group(0) @binding(8) var<storage, read_write> accum: array<vec4f>;
 @group(0) @binding(9) var<storage, read_write> accum_sq: array<vec4f>;

@@ -26,8 +26,7 @@ fn light_selection_pdf(index: u32) -> f32 {
             return 1.0 / f32(frame.light_count);
         }
         case SELECT_POWER: {
-            let lo = select(0.0, light_power_cdf[index - 1u], index > 0u);
-            return light_power_cdf[index] - lo;
+            return light_picks[index].pdf;
         }
         default: {
             // SELECT_EACH: every light gets its own samples.
@@ -36,19 +35,24 @@ fn light_selection_pdf(index: u32) -> f32 {
     }
 }
 
-// First index i with cdf[i] > u (binary search over the normalised power CDF).
+// Bucket i = ⌊u N⌋ of N, and the fraction of u left over inside it (a second uniform number).
+struct AliasBucketPick {
+    index: u32,
+    frac: f32,
+}
+
+fn alias_bucket(u: f32, n: u32) -> AliasBucketPick {
+    let x = u * f32(n);
+    let i = min(u32(x), n - 1u);
+    return AliasBucketPick(i, clamp(x - f32(i), 0.0, 1.0));
+}
+
+// A light with probability light_picks[i].pdf, by the alias method (Walker 1977; Vose 1991):
+// O(1), where a binary search over the power CDF took log2(N) dependent loads.
 fn select_light_by_power(u: f32) -> u32 {
-    var lo = 0u;
-    var hi = frame.light_count - 1u;
-    while lo < hi {
-        let mid = (lo + hi) / 2u;
-        if light_power_cdf[mid] > u {
-            hi = mid;
-        } else {
-            lo = mid + 1u;
-        }
-    }
-    return lo;
+    let b = alias_bucket(u, frame.light_count);
+    let pick = light_picks[b.index];
+    return select(pick.alias_index, b.index, b.frac < pick.alias_prob);
 }
 
 fn select_light(u: f32) -> u32 {
@@ -58,19 +62,13 @@ fn select_light(u: f32) -> u32 {
     return min(u32(u * f32(frame.light_count)), frame.light_count - 1u);
 }
 
-// Emitter triangle of `light` covering area fraction u (binary search over the light's area CDF).
+// An emitter triangle of `light` with probability proportional to its area, by the light's
+// alias table (as select_light_by_power).
 fn select_emitter_triangle(light: Light, u: f32) -> u32 {
-    var lo = light.first_tri;
-    var hi = light.first_tri + light.tri_count - 1u;
-    while lo < hi {
-        let mid = (lo + hi) / 2u;
-        if emitter_tris[mid].cdf > u {
-            hi = mid;
-        } else {
-            lo = mid + 1u;
-        }
-    }
-    return lo;
+    let b = alias_bucket(u, light.tri_count);
+    let ti = light.first_tri + b.index;
+    let bucket = emitter_tris[ti];
+    return select(bucket.alias_index, ti, b.frac < bucket.alias_prob);
 }
 
 // Does the light emit towards a receiver lying along -wi from a point with normal n_l?

@@ -5,6 +5,7 @@
 //! by `shaders`) → `image_io`.
 
 pub mod accumulation;
+pub mod alias;
 pub mod assets;
 pub mod bench;
 pub mod bench_run;

@@ -423,7 +423,7 @@ impl Renderer {
             storage_buffer(device, "materials", &arrays.materials),
             storage_buffer(device, "lights", &arrays.lights),
             storage_buffer(device, "emitter_tris", &arrays.emitter_tris),
-            storage_buffer(device, "light_power_cdf", &arrays.light_power_cdf),
+            storage_buffer(device, "light_picks", &arrays.light_picks),
         ];
         // Scenes without textures upload none: their kernels do not bind any.
         let texture_buffers = arrays.textures.as_ref().map(|t| {

@@ -3,7 +3,7 @@
 
 /// Binding of `frame` (FrameParams, read-only storage: see layout.wgsl for why not uniform).
 pub const FRAME: u32 = 0;
-/// Bindings 1..=7: the scene (bvh_nodes … light_power_cdf), read-only storage.
+/// Bindings 1..=7: the scene (bvh_nodes … light_picks), read-only storage.
 pub const SCENE_FIRST: u32 = 1;
 pub const SCENE_COUNT: u32 = 7;
 /// Bindings 8..=12: accum, accum_sq, counters, aov_light, aov_brdf (read-write storage).

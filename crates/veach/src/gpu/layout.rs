@@ -180,11 +180,20 @@ pub struct Light {
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct EmitterTriangle {
     pub p0: [f32; 3],
-    pub cdf: f32,
+    pub alias_prob: f32,
     pub e1: [f32; 3],
-    pub area: f32,
+    pub alias_index: u32,
     pub e2: [f32; 3],
     pub light: u32,
+}
+
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct LightPick {
+    pub pdf: f32,
+    pub alias_prob: f32,
+    pub alias_index: u32,
+    pub _pad0: u32,
 }
 
 #[repr(C)]
@@ -308,7 +317,8 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             _pad1,
             _pad2
         }),
-        layout!(EmitterTriangle { p0, cdf, e1, area, e2, light }),
+        layout!(EmitterTriangle { p0, alias_prob, e1, alias_index, e2, light }),
+        layout!(LightPick { pdf, alias_prob, alias_index }),
         layout!(TestParams { routine, count, seed, light_index, wo, point, material }),
         layout!(PixelCounters { rays, nonfinite }),
         layout!(DeferredSample { emitted, pixel, light, rng, tri, b1, b2, plan, rays }),

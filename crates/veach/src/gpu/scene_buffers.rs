@@ -1,6 +1,7 @@
 //! Scene + BVH → the arrays the kernel reads (see `shaders/layout.wgsl`).
 
 use super::layout::{self, NO_LIGHT};
+use crate::alias::alias_table;
 use crate::bvh::Bvh;
 use crate::features::SceneFeatures;
 use crate::scene::{LightKind, Scene, TextureRef};
@@ -17,7 +18,7 @@ pub struct SceneArrays {
     pub materials: Vec<layout::Material>,
     pub lights: Vec<layout::Light>,
     pub emitter_tris: Vec<layout::EmitterTriangle>,
-    pub light_power_cdf: Vec<f32>,
+    pub light_picks: Vec<layout::LightPick>,
     /// Centre and radius of a sphere around every area light's triangles; radius 0 without any.
     pub emitter_bound: ([f32; 3], f32),
     /// Only for scenes with textures (`shaders/textures.wgsl`).
@@ -125,18 +126,17 @@ pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) ->
                 let (centre, radius) = bounding_sphere(triangles.iter().flat_map(|&t| scene.triangles[t as usize].p));
                 g.position = centre.to_array();
                 g.bound_radius = radius;
-                let mut running = 0.0f64;
-                for (k, &t) in triangles.iter().enumerate() {
+                let areas: Vec<f64> = triangles.iter().map(|&t| scene.triangles[t as usize].area() as f64).collect();
+                let first = emitter_tris.len() as u32;
+                for (&t, bucket) in triangles.iter().zip(alias_table(&areas)) {
                     let tri = &scene.triangles[t as usize];
-                    running += tri.area() as f64;
                     triangle_light[t as usize] = li as u32;
                     emitter_scene_tris.push(t);
                     emitter_tris.push(layout::EmitterTriangle {
                         p0: tri.p[0].to_array(),
-                        // The last entry is exactly 1 so that u < 1 always finds a triangle.
-                        cdf: if k + 1 == triangles.len() { 1.0 } else { (running / total) as f32 },
+                        alias_prob: bucket.prob,
                         e1: (tri.p[1] - tri.p[0]).to_array(),
-                        area: tri.area(),
+                        alias_index: first + bucket.alias,
                         e2: (tri.p[2] - tri.p[0]).to_array(),
                         light: li as u32,
                     });
@@ -164,21 +164,18 @@ pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) ->
         lights.push(g);
     }
 
-    let powers = light_powers(scene);
-    let total: f64 = powers.iter().map(|&p| p.max(0.0) as f64).sum();
-    let mut running = 0.0f64;
-    let light_power_cdf: Vec<f32> = powers
+    // Lights by power; all dark (or no power at all): uniformly.
+    let powers: Vec<f64> =
+        light_powers(scene).iter().map(|&p| if p.is_finite() { p.max(0.0) as f64 } else { 0.0 }).collect();
+    let total: f64 = powers.iter().sum();
+    let light_picks: Vec<layout::LightPick> = powers
         .iter()
-        .enumerate()
-        .map(|(i, &p)| {
-            running += p.max(0.0) as f64;
-            if i + 1 == powers.len() {
-                1.0
-            } else if total > 0.0 {
-                (running / total) as f32
-            } else {
-                (i + 1) as f32 / powers.len() as f32
-            }
+        .zip(alias_table(&powers))
+        .map(|(&p, bucket)| layout::LightPick {
+            pdf: if total > 0.0 { (p / total) as f32 } else { 1.0 / powers.len() as f32 },
+            alias_prob: bucket.prob,
+            alias_index: bucket.alias,
+            ..Default::default()
         })
         .collect();
 
@@ -219,7 +216,7 @@ pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) ->
         materials,
         lights,
         emitter_tris,
-        light_power_cdf,
+        light_picks,
         emitter_bound,
         textures,
     }
