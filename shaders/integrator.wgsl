@@ -463,14 +463,28 @@ fn estimate_radiance(ray: Ray, rng: ptr<function, u32>, rays: ptr<function, u32>
     return e;
 }
 
+// The pixel a thread of a dispatch over a band of rows takes, and whether it lies in the image and
+// the band.
+struct BandPixel {
+    x: u32,
+    y: u32,
+    index: u32,
+    inside: bool,
+}
+
+fn band_pixel(gid: vec3u) -> BandPixel {
+    let y = frame.row_start + gid.y;
+    let inside = gid.x < frame.width && gid.y < frame.row_count && y < frame.height;
+    return BandPixel(gid.x, y, y * frame.width + gid.x, inside);
+}
+
 @compute @workgroup_size(8, 8, 1)
 fn render(@builtin(global_invocation_id) gid: vec3u) {
-    let x = gid.x;
-    let y = frame.row_start + gid.y;
-    if x >= frame.width || gid.y >= frame.row_count || y >= frame.height {
+    let px = band_pixel(gid);
+    if !px.inside {
         return;
     }
-    let pixel = y * frame.width + x;
+    let pixel = px.index;
     var sum = accum[pixel];
     var sum_sq = accum_sq[pixel];
     var count = counters[pixel];
@@ -483,7 +497,7 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
     }
     for (var k = 0u; k < frame.sample_count; k++) {
         var rng = rng_seed(pixel, frame.sample_start + k, frame.seed);
-        let ray = camera_ray(vec2u(x, y), rng_next2(&rng));
+        let ray = camera_ray(vec2u(px.x, px.y), rng_next2(&rng));
         var rays = 0u;
         let e = estimate_radiance(ray, &rng, &rays);
         let l = e.emitted + e.light + e.brdf;

@@ -13,18 +13,17 @@
 // A dispatch runs these three once per camera sample (a round), so that a pixel has at most one
 // deferred sample at a time and the last kernel adds to its sums without atomics.
 // The random stream continues where the light samples left it, so the image is the one
-// `render` makes, sample for sample (tests/wavefront.rs).
+// `render` makes, sample for sample (tests/specialise.rs).
 
 @compute @workgroup_size(8, 8, 1)
 fn render_light_pass(@builtin(global_invocation_id) gid: vec3u) {
-    let x = gid.x;
-    let y = frame.row_start + gid.y;
-    if x >= frame.width || gid.y >= frame.row_count || y >= frame.height {
+    let px = band_pixel(gid);
+    if !px.inside {
         return;
     }
-    let pixel = y * frame.width + x;
+    let pixel = px.index;
     var rng = rng_seed(pixel, frame.sample_start + deferred_header.round, frame.seed);
-    let ray = camera_ray(vec2u(x, y), rng_next2(&rng));
+    let ray = camera_ray(vec2u(px.x, px.y), rng_next2(&rng));
     var rays = 1u;
     var e = Estimate(vec3f(0.0), vec3f(0.0), vec3f(0.0));
     let hit = trace_closest(ray.origin, ray.dir, RAY_INF);

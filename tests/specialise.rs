@@ -27,17 +27,23 @@ fn point_lit_plane() -> veach::Scene {
     load(&g, "specialise-point")
 }
 
+/// The shipped scenes and a plane under point and directional lights: every feature the kernels
+/// specialise on.
+fn scenes() -> [(&'static str, veach::Scene); 4] {
+    [
+        ("cornell-box", shipped_scene("cornell-box")),
+        ("veach-mis", shipped_scene("veach-mis")),
+        ("textured", shipped_scene("textured")),
+        ("point-lit plane", point_lit_plane()),
+    ]
+}
+
 /// The specialised kernels only drop code behind constant-false conditions (features the scene
 /// lacks, other strategies, contribution images not asked for) and draw the same random numbers,
 /// so their images are identical, bit for bit, to the generic kernel's.
 #[test]
 fn specialised_kernels_render_the_generic_kernels_image() {
-    for (name, scene) in [
-        ("cornell-box", shipped_scene("cornell-box")),
-        ("veach-mis", shipped_scene("veach-mis")),
-        ("textured", shipped_scene("textured")),
-        ("point-lit plane", point_lit_plane()),
-    ] {
+    for (name, scene) in scenes() {
         let camera = scene.camera(None).unwrap();
         let gpu_scene = upload(&scene);
         for strategy in Strategy::ALL {
@@ -74,12 +80,7 @@ fn specialised_kernels_render_the_generic_kernels_image() {
 /// target) and when it runs several rounds (several camera samples).
 #[test]
 fn wavefront_kernels_render_the_megakernels_image() {
-    for (name, scene) in [
-        ("cornell-box", shipped_scene("cornell-box")),
-        ("veach-mis", shipped_scene("veach-mis")),
-        ("textured", shipped_scene("textured")),
-        ("point-lit plane", point_lit_plane()),
-    ] {
+    for (name, scene) in scenes() {
         let camera = scene.camera(None).unwrap();
         let gpu_scene = upload(&scene);
         for strategy in Strategy::ALL {
