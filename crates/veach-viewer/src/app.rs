@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
 use veach::scene::Camera;
-use veach::{Heuristic, LightSampling, LightSelection, RenderSettings, Renderer, Strategy};
+use veach::{Execution, Heuristic, LightSampling, LightSelection, RenderSettings, Renderer, Strategy};
 
 /// How the viewer starts.
 #[derive(Clone, Debug)]
@@ -50,6 +50,7 @@ pub struct Controls {
     pub heuristic: Heuristic,
     pub light_selection: LightSelection,
     pub light_sampling: LightSampling,
+    pub execution: Execution,
     pub light_samples: u32,
     pub brdf_samples: u32,
     pub seed: u32,
@@ -106,6 +107,7 @@ impl ViewerApp {
             heuristic: s.heuristic,
             light_selection: s.light_selection,
             light_sampling: s.light_sampling,
+            execution: s.execution,
             light_samples: s.light_samples,
             brdf_samples: s.brdf_samples,
             seed: s.seed,
@@ -157,6 +159,7 @@ impl ViewerApp {
             heuristic: c.heuristic,
             light_selection: c.light_selection,
             light_sampling: c.light_sampling,
+            execution: c.execution,
             seed: c.seed,
             write_aovs: c.view.needs_contributions(),
             hide_emitters: c.hide_emitters,
@@ -369,6 +372,11 @@ impl ViewerApp {
             ui.label("point on a light");
             ui.radio_value(&mut c.light_sampling, LightSampling::Area, "uniform in area");
             ui.radio_value(&mut c.light_sampling, LightSampling::SolidAngle, "uniform in solid angle");
+            // The same image either way: only the speed differs (docs/performance.md).
+            ui.label("kernels").on_hover_text("auto: whichever measured faster for the strategy and scene");
+            ui.radio_value(&mut c.execution, Execution::Auto, "auto");
+            ui.radio_value(&mut c.execution, Execution::Megakernel, "one per sample (megakernel)");
+            ui.radio_value(&mut c.execution, Execution::Wavefront, "light, then direction samples (wavefront)");
         });
         ui.separator();
         ui.heading("Image");
@@ -462,8 +470,13 @@ impl ViewerApp {
         });
         ui.label(format!("scene: {}", self.session.loaded.path.display()));
         ui.label(format!("features: {}", self.session.loaded.gpu.features.describe()));
+        let shape = match &self.current {
+            Some((s, _)) if veach::features::uses_wavefront(&self.session.loaded.gpu.features, s) => "wavefront",
+            Some(_) => "megakernel",
+            None => "none yet",
+        };
         ui.label(format!(
-            "adapter: {} · kernels compiled: {}",
+            "adapter: {} · kernels compiled: {} · running: {shape}",
             self.session.renderer.gpu.describe(),
             self.session.renderer.cached_kernels()
         ));
