@@ -36,7 +36,7 @@ fn app(spp: u32) -> ViewerApp {
 }
 
 fn harness(app: ViewerApp) -> Harness<'static, ViewerApp> {
-    Harness::builder().with_size([1100.0, 900.0]).build_ui_state(|ui, app: &mut ViewerApp| app.show(ui), app)
+    Harness::builder().with_size([1100.0, 960.0]).build_ui_state(|ui, app: &mut ViewerApp| app.show(ui), app)
 }
 
 /// Steps frames until the accumulation reaches its sample count.

@@ -372,11 +372,16 @@ impl ViewerApp {
             ui.label("point on a light");
             ui.radio_value(&mut c.light_sampling, LightSampling::Area, "uniform in area");
             ui.radio_value(&mut c.light_sampling, LightSampling::SolidAngle, "uniform in solid angle");
-            // The same image either way: only the speed differs (docs/performance.md).
-            ui.label("kernels").on_hover_text("auto: whichever measured faster for the strategy and scene");
+        });
+        // The same image either way: only the speed differs (docs/performance.md).
+        ui.horizontal(|ui| {
+            ui.label("kernels").on_hover_text(
+                "megakernel: one kernel per camera sample; wavefront: light samples, then the \
+                 direction samples of the points that take some; auto: whichever measured faster",
+            );
             ui.radio_value(&mut c.execution, Execution::Auto, "auto");
-            ui.radio_value(&mut c.execution, Execution::Megakernel, "one per sample (megakernel)");
-            ui.radio_value(&mut c.execution, Execution::Wavefront, "light, then direction samples (wavefront)");
+            ui.radio_value(&mut c.execution, Execution::Megakernel, "mega");
+            ui.radio_value(&mut c.execution, Execution::Wavefront, "wavefront");
         });
         ui.separator();
         ui.heading("Image");
