@@ -99,7 +99,11 @@ fn wavefront_kernels_render_the_megakernels_image() {
                     ..Default::default()
                 };
                 let mega = render(&gpu_scene, &settings, &camera);
-                let wave = render(&gpu_scene, &RenderSettings { execution: Execution::Wavefront, ..settings }, &camera);
+                let wave = render(
+                    &gpu_scene,
+                    &RenderSettings { execution: Execution::Wavefront, ..settings.clone() },
+                    &camera,
+                );
                 assert!(!mega.kernel.wavefront && wave.kernel.wavefront);
                 let what = format!("{name} {strategy:?} aovs {write_aovs}");
                 assert_eq!(wave.sum, mega.sum, "{what}: images differ");
@@ -110,6 +114,13 @@ fn wavefront_kernels_render_the_megakernels_image() {
                     let (a, b) = (wave.contributions.unwrap(), mega.contributions.unwrap());
                     assert_eq!(a.light, b.light, "{what}: light contributions differ");
                     assert_eq!(a.brdf, b.brdf, "{what}: BRDF contributions differ");
+                }
+                // The generic kernel (strategy read at run time) split the same way.
+                if !write_aovs {
+                    let generic = RenderSettings { specialise: false, execution: Execution::Wavefront, ..settings };
+                    let generic = render(&gpu_scene, &generic, &camera);
+                    assert!(generic.kernel.wavefront && generic.kernel.strategy.is_none());
+                    assert_eq!(generic.sum, mega.sum, "{what}: the generic wavefront kernels' image differs");
                 }
             }
         }
