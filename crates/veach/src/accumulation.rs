@@ -53,6 +53,44 @@ struct WavefrontQueue {
     capacity: u64,
 }
 
+impl WavefrontQueue {
+    /// The queue's buffers, and the bind group of the first two kernels (the direction kernel's
+    /// own is in the queue). Bind groups keep the buffers they bind alive.
+    fn new(
+        renderer: &Renderer,
+        kernel: &Kernel,
+        params: &wgpu::Buffer,
+        scene: &GpuScene,
+        outputs: &[&wgpu::Buffer; 5],
+        capacity: u64,
+        width: u32,
+    ) -> Result<(wgpu::BindGroup, WavefrontQueue)> {
+        if capacity < width as u64 {
+            return Err(Error::Options(format!("width {width} exceeds what a wavefront dispatch can hold")));
+        }
+        let device = &renderer.gpu.device;
+        let buffer = |label: &str, size: u64, usage: wgpu::BufferUsages| {
+            device.create_buffer(&wgpu::BufferDescriptor {
+                label: Some(label),
+                size,
+                usage: wgpu::BufferUsages::STORAGE | usage,
+                mapped_at_creation: false,
+            })
+        };
+        let sample_bytes = std::mem::size_of::<DeferredSample>() as u64;
+        let samples = buffer("deferred samples", capacity * sample_bytes, wgpu::BufferUsages::empty());
+        let header = buffer("deferred header", 16, wgpu::BufferUsages::COPY_DST);
+        let dispatch_args = buffer("deferred dispatch", 16, wgpu::BufferUsages::INDIRECT);
+        let placeholder = buffer("placeholder", 16, wgpu::BufferUsages::empty());
+        let with_args = |args| {
+            [(bindings::DEFERRED, &samples), (bindings::DEFERRED_HEADER, &header), (bindings::DEFERRED_DISPATCH, args)]
+        };
+        let bind_group = renderer.bind_group(kernel, params, scene, outputs, &with_args(&dispatch_args));
+        let direction_bind_group = renderer.bind_group(kernel, params, scene, outputs, &with_args(&placeholder));
+        Ok((bind_group, WavefrontQueue { header, dispatch_args, direction_bind_group, capacity }))
+    }
+}
+
 impl Accumulation {
     /// Allocates the image buffers and gets the kernel for `settings` (compiling it now if it
     /// is not cached; that time is `kernel_creation`, outside the render time).
@@ -107,47 +145,18 @@ impl Accumulation {
         };
         // The deferred samples of one dispatch: a band of rows, each pixel once, within the
         // binding size and the direction kernel's one-dimensional indirect dispatch.
-        let sample_bytes = std::mem::size_of::<DeferredSample>() as u64;
         let deferred_capacity = pixels
-            .min(max_binding / sample_bytes)
+            .min(max_binding / std::mem::size_of::<DeferredSample>() as u64)
             .min(device.limits().max_compute_workgroups_per_dimension as u64 * DEFERRED_WORKGROUP as u64);
         let creation_start = Instant::now();
         let (kernel, created) = renderer.kernel(key)?;
-        let mut extra: Vec<(u32, &wgpu::Buffer)> = Vec::new();
-        let wavefront_buffers = if key.wavefront {
-            if deferred_capacity < w as u64 {
-                return Err(Error::Options(format!("width {w} exceeds what a wavefront dispatch can hold")));
-            }
-            let small = |label: &str, usage: wgpu::BufferUsages| {
-                device.create_buffer(&wgpu::BufferDescriptor {
-                    label: Some(label),
-                    size: 16,
-                    usage: wgpu::BufferUsages::STORAGE | usage,
-                    mapped_at_creation: false,
-                })
-            };
-            Some((
-                zeroed("deferred samples", deferred_capacity * sample_bytes),
-                small("deferred header", wgpu::BufferUsages::COPY_DST),
-                small("deferred dispatch", wgpu::BufferUsages::INDIRECT),
-                small("placeholder", wgpu::BufferUsages::empty()),
-            ))
+        let (bind_group, wavefront) = if key.wavefront {
+            let (bind_group, queue) =
+                WavefrontQueue::new(renderer, &kernel, &params_buffer, scene, &outputs, deferred_capacity, w)?;
+            (bind_group, Some(queue))
         } else {
-            None
+            (renderer.bind_group(&kernel, &params_buffer, scene, &outputs, &[]), None)
         };
-        let mut direction_bind_group = None;
-        if let Some((samples, header, dispatch_args, placeholder)) = &wavefront_buffers {
-            extra = vec![(bindings::DEFERRED, samples), (bindings::DEFERRED_HEADER, header)];
-            let mut direction_extra = extra.clone();
-            direction_extra.push((bindings::DEFERRED_DISPATCH, placeholder));
-            direction_bind_group =
-                Some(renderer.bind_group(&kernel, &params_buffer, scene, &outputs, &direction_extra));
-            extra.push((bindings::DEFERRED_DISPATCH, dispatch_args));
-        }
-        let bind_group = renderer.bind_group(&kernel, &params_buffer, scene, &outputs, &extra);
-        let wavefront = wavefront_buffers.zip(direction_bind_group).map(|((_, header, dispatch_args, _), bg)| {
-            WavefrontQueue { header, dispatch_args, direction_bind_group: bg, capacity: deferred_capacity }
-        });
         let params = renderer.frame_params(scene, settings, camera);
         let mut acc = Accumulation {
             gpu: gpu.clone(),
