@@ -564,9 +564,7 @@ fn render(args: RenderArgs) -> Result<()> {
         "scene features: {}; kernel: {}{}",
         gpu_scene.features.describe(),
         if settings.specialise { "specialised" } else { "generic" },
-        if settings.specialise && veach::features::uses_wavefront(&gpu_scene.features, &settings)
-            || settings.execution == Execution::Wavefront
-        {
+        if veach::features::KernelKey::for_render(&gpu_scene.features, &settings).wavefront {
             ", wavefront"
         } else {
             ""

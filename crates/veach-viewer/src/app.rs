@@ -476,7 +476,9 @@ impl ViewerApp {
         ui.label(format!("scene: {}", self.session.loaded.path.display()));
         ui.label(format!("features: {}", self.session.loaded.gpu.features.describe()));
         let shape = match &self.current {
-            Some((s, _)) if veach::features::uses_wavefront(&self.session.loaded.gpu.features, s) => "wavefront",
+            Some((s, _)) if veach::features::KernelKey::for_render(&self.session.loaded.gpu.features, s).wavefront => {
+                "wavefront"
+            }
             Some(_) => "megakernel",
             None => "none yet",
         };

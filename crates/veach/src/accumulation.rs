@@ -7,9 +7,7 @@ use crate::features::KernelKey;
 use crate::gpu::bindings;
 use crate::gpu::context::GpuContext;
 use crate::gpu::layout::{DEFERRED_WORKGROUP, DeferredSample, FrameParams, PixelCounters, WORKGROUP_SIZE};
-use crate::render::{
-    Contributions, Execution, GpuScene, GpuTimer, Kernel, RenderOutput, RenderSettings, Renderer, read_buffer,
-};
+use crate::render::{Contributions, GpuScene, GpuTimer, Kernel, RenderOutput, RenderSettings, Renderer, read_buffer};
 use crate::scene::Camera;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -137,12 +135,7 @@ impl Accumulation {
         });
 
         let outputs = [&accum, &accum_sq, &counters, &aov_light, &aov_brdf];
-        let key = if settings.specialise {
-            KernelKey::specialised(&scene.features, settings)
-        } else {
-            // The generic kernel is the megakernel unless the wavefront is asked for by name.
-            KernelKey { wavefront: settings.execution == Execution::Wavefront, ..KernelKey::generic() }
-        };
+        let key = KernelKey::for_render(&scene.features, settings);
         // The deferred samples of one dispatch: a band of rows, each pixel once, within the
         // binding size and the direction kernel's one-dimensional indirect dispatch.
         let deferred_capacity = pixels

@@ -128,6 +128,16 @@ impl KernelKey {
         }
     }
 
+    /// The kernel a render runs: specialised to the scene and the settings, or (with
+    /// `specialise` off) the generic one, split into the wavefront only when asked by name.
+    pub fn for_render(features: &SceneFeatures, settings: &RenderSettings) -> KernelKey {
+        if settings.specialise {
+            KernelKey::specialised(features, settings)
+        } else {
+            KernelKey { wavefront: settings.execution == Execution::Wavefront, ..KernelKey::generic() }
+        }
+    }
+
     /// The kernel specialised to a scene's features and a render's settings.
     pub fn specialised(features: &SceneFeatures, settings: &RenderSettings) -> KernelKey {
         KernelKey {

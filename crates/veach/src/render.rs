@@ -71,16 +71,6 @@ pub enum Execution {
     Wavefront,
 }
 
-impl Execution {
-    pub fn name(self) -> &'static str {
-        match self {
-            Execution::Auto => "auto",
-            Execution::Megakernel => "megakernel",
-            Execution::Wavefront => "wavefront",
-        }
-    }
-}
-
 impl LightSampling {
     pub fn name(self) -> &'static str {
         match self {

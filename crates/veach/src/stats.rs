@@ -97,14 +97,11 @@ pub fn render_stats(
             gpu_scene_bytes: setup.gpu_scene_bytes,
         },
         features: gpu_scene.features,
-        kernel: if out.kernel == crate::features::KernelKey::generic() {
-            "generic".into()
-        } else if out.kernel
-            == (crate::features::KernelKey { wavefront: true, ..crate::features::KernelKey::generic() })
-        {
-            "generic, wavefront".into()
-        } else {
-            format!("specialised {:?}", out.kernel)
+        // The generic kernel reads the strategy at run time; a specialised one has it fixed.
+        kernel: match (out.kernel.strategy, out.kernel.wavefront) {
+            (None, false) => "generic".into(),
+            (None, true) => "generic, wavefront".into(),
+            (Some(_), _) => format!("specialised {:?}", out.kernel),
         },
         settings: SettingsReport {
             width: settings.width,
