@@ -141,7 +141,9 @@ fn keys_move_the_camera_and_reset_restores_it() {
 
 #[test]
 fn error_curve_falls_as_samples_accumulate_and_saves_as_csv() {
-    let mut h = harness(app(64));
+    // 256 spp: enough work that no first frame (dispatches for half its 30 ms budget) can finish
+    // it on lavapipe, whatever the Mesa release (64 spp did fit in one frame with Mesa 25).
+    let mut h = harness(app(256));
     h.get_by_label(&format!("render reference ({} spp)", veach_viewer::app::REFERENCE_SPP)).click();
     for _ in 0..2000 {
         h.step();
@@ -161,10 +163,11 @@ fn error_curve_falls_as_samples_accumulate_and_saves_as_csv() {
     assert!((last.relmse - now).abs() <= 1e-9 * now.max(1.0), "curve {} vs image {now}", last.relmse);
     // The error falls as samples accumulate, but not smoothly as 1/spp: at 48×48 one pixel on
     // the floor by the boxes carries 40-90% of relMSE (rare bright samples where the reference
-    // is nearly black, ε = 0.01). Measured for this seed, relMSE against the reference at
-    // 1, 2, 3, 4, 8, 16, 32, 48, 64 spp: 0.036 0.015 0.19 0.11 0.028 0.059 0.035 0.025 0.013,
-    // so whichever frame gives the first point (timing decides), the last must be below it.
-    assert!(first.spp <= 48.0, "first point at {} spp: too late to see the error fall", first.spp);
+    // is nearly black, ε = 0.01). Measured for this seed against the reference, relMSE at
+    // 1, 2, 3, 4, 8, 16, 32, 64, 128 spp: 0.036 0.015 0.19 0.11 0.028 0.059 0.035 0.013 0.014;
+    // at every count from 1 to 160 spp it is at least 0.0092, at 256 spp 0.0072. So whichever
+    // frame gives the first point (timing decides), if it is at most 160 spp the last is below it.
+    assert!(first.spp <= 160.0, "first point at {} spp: too late to see the error fall", first.spp);
     assert!(
         last.relmse < first.relmse,
         "relMSE {} -> {} from {} to {} spp",

@@ -557,7 +557,7 @@ fn render(args: RenderArgs) -> Result<()> {
     }
 
     let gpu = GpuContext::new(args.adapter.as_deref())?;
-    say(format!("adapter: {}", gpu.describe()));
+    say(format!("adapter: {}; driver: {}", gpu.describe(), gpu.driver()));
     let renderer = Renderer::new(gpu)?;
     let gpu_scene = renderer.upload_scene(&scene)?;
     say(format!(
@@ -675,7 +675,7 @@ fn scale(args: ScaleArgs) -> Result<()> {
         repeats: args.repeats,
     };
     let gpu = GpuContext::new(args.adapter.as_deref())?;
-    eprintln!("adapter: {}", gpu.describe());
+    eprintln!("adapter: {}; driver: {}", gpu.describe(), gpu.driver());
     let renderer = Renderer::new(gpu)?;
     let bar = ProgressBar::new((config.triangles.len() + config.lights.len()) as u64);
     bar.set_style(
@@ -751,7 +751,7 @@ fn bench(args: BenchArgs) -> Result<()> {
         scenes.push((path, scene, camera));
     }
     let gpu = GpuContext::new(args.adapter.as_deref())?;
-    eprintln!("adapter: {}", gpu.describe());
+    eprintln!("adapter: {}; driver: {}", gpu.describe(), gpu.driver());
     let renderer = Renderer::new(gpu)?;
     let per_scene = bench_units(&config);
     let total = per_scene * scenes.len() as u64;
@@ -771,9 +771,10 @@ fn bench(args: BenchArgs) -> Result<()> {
         })
         .collect();
     let mut report = format!(
-        "# veach bench\n\nAdapter: {}. Samples per camera sample: {} (one light chosen by power per light \
+        "# veach bench\n\nAdapter: {}; driver: {}. Samples per camera sample: {} (one light chosen by power per light \
          sample). Times are render times only ({}).\n\n",
         renderer.gpu.describe(),
+        renderer.gpu.driver(),
         counts.join(", "),
         if renderer.gpu.has_timestamps { "GPU timestamps" } else { "wall clock around submit and wait" }
     );

@@ -7,6 +7,8 @@ use serde::Serialize;
 #[derive(Serialize)]
 pub struct RenderStats {
     pub adapter: String,
+    /// Driver name and version (lavapipe's adapter name does not change with the Mesa release).
+    pub driver: String,
     pub backend: String,
     pub device_type: String,
     pub scene: SceneCounts,
@@ -83,6 +85,7 @@ pub fn render_stats(
     let delta = scene.lights.iter().filter(|l| l.is_delta()).count();
     RenderStats {
         adapter: info.name.clone(),
+        driver: renderer.gpu.driver(),
         backend: format!("{:?}", info.backend),
         device_type: format!("{:?}", info.device_type),
         scene: SceneCounts {

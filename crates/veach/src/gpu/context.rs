@@ -97,4 +97,17 @@ impl GpuContext {
     pub fn describe(&self) -> String {
         format!("{} ({:?}, {:?})", self.adapter_info.name, self.adapter_info.backend, self.adapter_info.device_type)
     }
+
+    /// The driver and its version, e.g. "llvmpipe, Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6)": lavapipe's
+    /// adapter name ("llvmpipe (LLVM 15.0.6, 256 bits)") is the same across Mesa releases that
+    /// differ 1.4-3x in speed.
+    pub fn driver(&self) -> String {
+        let info = &self.adapter_info;
+        match (info.driver.is_empty(), info.driver_info.is_empty()) {
+            (false, false) => format!("{}, {}", info.driver, info.driver_info),
+            (false, true) => info.driver.clone(),
+            (true, false) => info.driver_info.clone(),
+            (true, true) => "driver unknown".to_string(),
+        }
+    }
 }
