@@ -23,6 +23,9 @@ the two references must agree.
 
 Needs: `pip install mitsuba numpy`; Mitsuba's LLVM variants need libLLVM >= 16
 (Debian 12: `apt-get install libllvm19`, then DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1).
+veach's speed on lavapipe depends on the Mesa release: `scripts/setup-debian.sh --mesa-backports`
+installs Mesa 25 on Debian 12 (or point VK_ICD_FILENAMES at its lvp_icd.json); the table's first
+line names the driver that ran.
 Writes DIR/peer.csv and prints a Markdown table (docs/performance.md holds the measured one).
 """
 
@@ -67,6 +70,7 @@ def veach_render(veach, scene, out, width, height, spp, seed, light, brdf, strat
          "--seed", str(seed), "--strategy", strategy, "--light-samples", str(light), "--brdf-samples", str(brdf),
          "--light-selection", selection, "--hide-emitters", "--stats", stats, "--quiet"])
     s = json.loads(stats.read_text())
+    veach_render.driver = f"{s['adapter']}, {s.get('driver', 'driver unknown')}"
     return read_pfm(out), s["timings_seconds"]["render"]
 
 
@@ -145,6 +149,8 @@ def main():
         f.write("scene,renderer,spp,seed,seconds,relmse\n")
         for r in rows:
             f.write(",".join(str(v) for v in r) + "\n")
+    # lavapipe's speed depends on the Mesa release (22.3 against 25: 1.4-3.3x), so say which ran.
+    print(f"veach on {veach_render.driver}; Mitsuba {mi.__version__} ({mi.variant()})\n")
     print("| scene | spp | veach s | veach relMSE | veach eff. | Mitsuba s | Mitsuba relMSE | Mitsuba eff. "
           "| veach / Mitsuba eff. | relMSE between references |")
     print("|---|---|---|---|---|---|---|---|---|---|")

@@ -17,6 +17,15 @@ pub struct Bvh {
     pub sah_cost: f32,
 }
 
+/// obvhs's medium preset with leaves collapsed at a node cost of 2 triangle tests instead of 3:
+/// smaller leaves. Measured with Mesa 25's lavapipe, 256×256, 32 spp, medians of 3: Cornell box
+/// 0.91-0.92× the render time (light, mis, mis-lobes), Veach scene 0.96-0.99×, textured scene
+/// within the spread; 7 more bytes per triangle (49 at 1M triangles), BVH build 0.49 -> 0.52 s
+/// (docs/performance.md, "Smaller BVH leaves").
+fn build_params() -> BvhBuildParams {
+    BvhBuildParams { collapse_traversal_cost: 2.0, ..BvhBuildParams::medium_build() }
+}
+
 pub fn build_bvh(triangles: &[Triangle]) -> Bvh {
     let start = Instant::now();
     if triangles.is_empty() {
@@ -34,7 +43,7 @@ pub fn build_bvh(triangles: &[Triangle]) -> Bvh {
         })
         .collect();
     let mut core_time = Duration::ZERO;
-    let bvh2 = obvhs::bvh2::builder::build_bvh2_from_tris(&tris, BvhBuildParams::medium_build(), &mut core_time);
+    let bvh2 = obvhs::bvh2::builder::build_bvh2_from_tris(&tris, build_params(), &mut core_time);
     let nodes: Vec<BvhNode> = bvh2
         .nodes
         .iter()
