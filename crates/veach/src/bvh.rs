@@ -19,8 +19,8 @@ pub struct Bvh {
 
 /// obvhs's medium preset with leaves collapsed at a node cost of 2 triangle tests instead of 3:
 /// smaller leaves. Measured with Mesa 25's lavapipe, 256×256, 32 spp, medians of 3: Cornell box
-/// 0.91-0.92× the render time (light, mis, mis-lobes), Veach scene 0.96-0.99×, textured scene
-/// within the spread; 7 more bytes per triangle (49 at 1M triangles), BVH build 0.49 -> 0.52 s
+/// 0.90-0.92× the render time (light, mis, mis-lobes), Veach scene 0.96-0.99×, textured scene
+/// within the spread (Mesa 22.3: 0.93-0.98×); 7 more bytes per triangle (49 at 1M triangles)
 /// (docs/performance.md, "Smaller BVH leaves").
 fn build_params() -> BvhBuildParams {
     BvhBuildParams { collapse_traversal_cost: 2.0, ..BvhBuildParams::medium_build() }
