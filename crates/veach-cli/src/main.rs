@@ -228,8 +228,8 @@ struct RenderArgs {
     #[arg(long)]
     no_specialise: bool,
     /// One kernel per camera sample, or light samples in one and the direction samples of the
-    /// points that take some in a second (auto: whichever measured faster: wavefront for light and
-    /// mis-lobes, and for every strategy on textured scenes)
+    /// points that take some in a second (auto: whichever measured faster on the driver: with Mesa
+    /// 22's lavapipe the wavefront for light and mis-lobes and on textured scenes, else megakernel)
     #[arg(long, value_enum, default_value_t = ExecutionArg::Auto)]
     execution: ExecutionArg,
 }
@@ -564,7 +564,8 @@ fn render(args: RenderArgs) -> Result<()> {
         "scene features: {}; kernel: {}{}",
         gpu_scene.features.describe(),
         if settings.specialise { "specialised" } else { "generic" },
-        if veach::features::KernelKey::for_render(&gpu_scene.features, &settings).wavefront {
+        if veach::features::KernelKey::for_render(&gpu_scene.features, &settings, renderer.gpu.auto_execution).wavefront
+        {
             ", wavefront"
         } else {
             ""

@@ -476,7 +476,14 @@ impl ViewerApp {
         ui.label(format!("scene: {}", self.session.loaded.path.display()));
         ui.label(format!("features: {}", self.session.loaded.gpu.features.describe()));
         let shape = match &self.current {
-            Some((s, _)) if veach::features::KernelKey::for_render(&self.session.loaded.gpu.features, s).wavefront => {
+            Some((s, _))
+                if veach::features::KernelKey::for_render(
+                    &self.session.loaded.gpu.features,
+                    s,
+                    self.session.renderer.gpu.auto_execution,
+                )
+                .wavefront =>
+            {
                 "wavefront"
             }
             Some(_) => "megakernel",

@@ -130,16 +130,16 @@ impl KernelKey {
 
     /// The kernel a render runs: specialised to the scene and the settings, or (with
     /// `specialise` off) the generic one, split into the wavefront only when asked by name.
-    pub fn for_render(features: &SceneFeatures, settings: &RenderSettings) -> KernelKey {
+    pub fn for_render(features: &SceneFeatures, settings: &RenderSettings, auto: AutoExecution) -> KernelKey {
         if settings.specialise {
-            KernelKey::specialised(features, settings)
+            KernelKey::specialised(features, settings, auto)
         } else {
             KernelKey { wavefront: settings.execution == Execution::Wavefront, ..KernelKey::generic() }
         }
     }
 
     /// The kernel specialised to a scene's features and a render's settings.
-    pub fn specialised(features: &SceneFeatures, settings: &RenderSettings) -> KernelKey {
+    pub fn specialised(features: &SceneFeatures, settings: &RenderSettings, auto: AutoExecution) -> KernelKey {
         KernelKey {
             strategy: Some(effective_strategy(features, settings).0),
             area_lights: features.area_lights,
@@ -155,7 +155,7 @@ impl KernelKey {
                 features.emissive_texture,
                 features.normal_texture,
             ],
-            wavefront: uses_wavefront(features, settings),
+            wavefront: uses_wavefront(features, settings, auto),
         }
     }
 
@@ -202,21 +202,73 @@ pub fn effective_strategy(features: &SceneFeatures, settings: &RenderSettings) -
     (settings.strategy, settings.light_samples, settings.brdf_samples)
 }
 
-/// Whether a render runs the wavefront kernels: as asked, or with `Execution::Auto` where they
-/// measured faster on lavapipe (docs/performance.md, "Megakernel against wavefront"; 256×256,
-/// 32 spp, the three shipped scenes): for light sampling and mis-lobes, whose first kernel
-/// leaves out the direction-sample code that the megakernel runs under a mask at every point
-/// (0.78-0.96x the time), and on textured scenes for every strategy, where the megakernel also
-/// runs the camera hit's texture lookups under a mask on every direction sample's pass
-/// (0.75-0.88x). Where every point takes direction samples and there are no textures (uniform,
-/// brdf, mis) the queue costs more than it saves: 1.02-1.46x.
-pub fn uses_wavefront(features: &SceneFeatures, settings: &RenderSettings) -> bool {
+/// What `Execution::Auto` picks on an adapter, from its driver (docs/performance.md, "Megakernel
+/// against wavefront"; 256×256, 32 spp, the three shipped scenes, medians of 3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AutoExecution {
+    /// lavapipe from Mesa 22 and older, whose code generator runs both sides of every branch
+    /// under a SIMD mask: the wavefront for light sampling and mis-lobes, whose first kernel
+    /// leaves out the direction-sample code that the megakernel runs masked at every point
+    /// (0.78-0.96x the time), and on textured scenes for every strategy, where the megakernel
+    /// also runs the camera hit's texture lookups masked on every direction sample's pass
+    /// (0.75-0.88x). Where every point takes direction samples and there are no textures
+    /// (uniform, brdf, mis) the queue costs more than it saves: 1.02-1.46x.
+    WavefrontWhereMasked,
+    /// Every other driver: the megakernel. Measured on Mesa 25's lavapipe, where the wavefront
+    /// took 1.01-1.38x the time in 11 of 12 cases (0.96x in one); GPUs not measured.
+    Megakernel,
+}
+
+impl AutoExecution {
+    pub fn for_adapter(info: &wgpu::AdapterInfo) -> AutoExecution {
+        AutoExecution::for_driver(&info.driver, &info.driver_info)
+    }
+
+    /// From wgpu's `AdapterInfo::driver` and `driver_info`.
+    pub fn for_driver(driver: &str, driver_info: &str) -> AutoExecution {
+        if driver == "llvmpipe" && mesa_major(driver_info).is_some_and(|major| major <= 22) {
+            AutoExecution::WavefrontWhereMasked
+        } else {
+            AutoExecution::Megakernel
+        }
+    }
+}
+
+/// 22 from "Mesa 22.3.6 (LLVM 15.0.6)".
+fn mesa_major(driver_info: &str) -> Option<u32> {
+    let version = driver_info.split("Mesa ").nth(1)?;
+    version.split('.').next()?.parse().ok()
+}
+
+/// Whether a render runs the wavefront kernels: as asked, or as `auto` picks for the adapter.
+pub fn uses_wavefront(features: &SceneFeatures, settings: &RenderSettings, auto: AutoExecution) -> bool {
     match settings.execution {
         Execution::Megakernel => false,
         Execution::Wavefront => true,
+        Execution::Auto if auto == AutoExecution::Megakernel => false,
         Execution::Auto => match effective_strategy(features, settings).0 {
             Strategy::Light | Strategy::MisLobes => true,
             Strategy::Uniform | Strategy::Brdf | Strategy::Mis => features.textures(),
         },
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::AutoExecution;
+
+    #[test]
+    fn auto_execution_follows_the_driver() {
+        // The strings wgpu reports for lavapipe on Debian 12 and from bookworm-backports.
+        assert_eq!(
+            AutoExecution::for_driver("llvmpipe", "Mesa 22.3.6 (LLVM 15.0.6)"),
+            AutoExecution::WavefrontWhereMasked
+        );
+        assert_eq!(
+            AutoExecution::for_driver("llvmpipe", "Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6)"),
+            AutoExecution::Megakernel
+        );
+        assert_eq!(AutoExecution::for_driver("NVIDIA", "570.86.15"), AutoExecution::Megakernel);
+        assert_eq!(AutoExecution::for_driver("llvmpipe", ""), AutoExecution::Megakernel);
     }
 }

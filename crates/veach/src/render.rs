@@ -59,9 +59,10 @@ pub enum LightSampling {
 /// How a camera sample's work is split over kernels.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Execution {
-    /// Whichever measured faster on lavapipe (`features::uses_wavefront`): the wavefront for
-    /// light sampling and mis-lobes, and for every strategy on textured scenes; the megakernel
-    /// otherwise (docs/performance.md, "Megakernel against wavefront").
+    /// Whichever measured faster on the adapter's driver (`features::AutoExecution`): on Mesa 22's
+    /// lavapipe the wavefront for light sampling and mis-lobes, and for every strategy on
+    /// textured scenes; the megakernel otherwise (docs/performance.md, "Megakernel against
+    /// wavefront").
     #[default]
     Auto,
     /// `render`: the camera ray, light samples and direction samples in one kernel.

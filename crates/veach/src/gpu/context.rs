@@ -8,6 +8,8 @@ pub struct GpuContext {
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
     pub adapter_info: wgpu::AdapterInfo,
+    /// What `--execution auto` picks on this driver.
+    pub auto_execution: crate::features::AutoExecution,
     /// Timestamp queries are available (used for timing renders without host overhead).
     pub has_timestamps: bool,
 }
@@ -75,7 +77,8 @@ impl GpuContext {
             )));
         }
         let has_timestamps = device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
-        Ok(GpuContext { device, queue, adapter_info: info, has_timestamps })
+        let auto_execution = crate::features::AutoExecution::for_adapter(&info);
+        Ok(GpuContext { device, queue, adapter_info: info, has_timestamps, auto_execution })
     }
 
     /// Adapters in veach's order of preference (a discrete GPU first, a software one last),
