@@ -564,7 +564,8 @@ fn render(args: RenderArgs) -> Result<()> {
         "scene features: {}; kernel: {}{}",
         gpu_scene.features.describe(),
         if settings.specialise { "specialised" } else { "generic" },
-        if veach::features::KernelKey::for_render(&gpu_scene.features, &settings, renderer.gpu.auto_execution).wavefront
+        if veach::features::KernelKey::for_render(&gpu_scene.features, &settings, renderer.gpu.auto_execution())
+            .wavefront
         {
             ", wavefront"
         } else {

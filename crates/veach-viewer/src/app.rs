@@ -480,7 +480,7 @@ impl ViewerApp {
                 if veach::features::KernelKey::for_render(
                     &self.session.loaded.gpu.features,
                     s,
-                    self.session.renderer.gpu.auto_execution,
+                    self.session.renderer.gpu.auto_execution(),
                 )
                 .wavefront =>
             {

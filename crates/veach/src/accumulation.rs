@@ -135,7 +135,7 @@ impl Accumulation {
         });
 
         let outputs = [&accum, &accum_sq, &counters, &aov_light, &aov_brdf];
-        let key = KernelKey::for_render(&scene.features, settings, gpu.auto_execution);
+        let key = KernelKey::for_render(&scene.features, settings, gpu.auto_execution());
         // The deferred samples of one dispatch: a band of rows, each pixel once, within the
         // binding size and the direction kernel's one-dimensional indirect dispatch.
         let deferred_capacity = pixels

@@ -8,8 +8,6 @@ pub struct GpuContext {
     pub device: wgpu::Device,
     pub queue: wgpu::Queue,
     pub adapter_info: wgpu::AdapterInfo,
-    /// What `--execution auto` picks on this driver.
-    pub auto_execution: crate::features::AutoExecution,
     /// Timestamp queries are available (used for timing renders without host overhead).
     pub has_timestamps: bool,
 }
@@ -77,8 +75,7 @@ impl GpuContext {
             )));
         }
         let has_timestamps = device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
-        let auto_execution = crate::features::AutoExecution::for_adapter(&info);
-        Ok(GpuContext { device, queue, adapter_info: info, has_timestamps, auto_execution })
+        Ok(GpuContext { device, queue, adapter_info: info, has_timestamps })
     }
 
     /// Adapters in veach's order of preference (a discrete GPU first, a software one last),
@@ -99,6 +96,11 @@ impl GpuContext {
     /// "llvmpipe (LLVM 15.0.6, 256 bits) (Vulkan, Cpu)"
     pub fn describe(&self) -> String {
         format!("{} ({:?}, {:?})", self.adapter_info.name, self.adapter_info.backend, self.adapter_info.device_type)
+    }
+
+    /// What `--execution auto` picks on this driver.
+    pub fn auto_execution(&self) -> crate::features::AutoExecution {
+        crate::features::AutoExecution::for_adapter(&self.adapter_info)
     }
 
     /// The driver and its version, e.g. "llvmpipe, Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6)": lavapipe's
