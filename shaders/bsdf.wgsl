@@ -184,8 +184,9 @@ fn mirror_reflectance(p: BsdfParams, c: f32) -> vec3f {
     return mix(p.specular * dielectric_fresnel(p, c), conductor_fresnel(p, c), p.metallic);
 }
 
-// Chooses a lobe with u.x, then samples it with (u.y, u.z). pdf = 0 marks a failed sample.
-fn bsdf_sample(p: BsdfParams, wo: vec3f, u: vec3f) -> BsdfSample {
+// Chooses a lobe with u.x, then samples it with u.x remapped and u.y (one 2D sample, so that the
+// sampler's stratification carries into each lobe). pdf = 0 marks a failed sample.
+fn bsdf_sample(p: BsdfParams, wo: vec3f, u: vec2f) -> BsdfSample {
     if wo.z <= 0.0 {
         return BsdfSample(vec3f(0.0, 0.0, 1.0), 0.0, false, vec3f(0.0));
     }
@@ -195,10 +196,10 @@ fn bsdf_sample(p: BsdfParams, wo: vec3f, u: vec3f) -> BsdfSample {
     }
     var wi: vec3f;
     if HAS_GLOSSY && u.x < p_spec {
-        let h = sample_ggx_vndf(wo, p.alpha, u.yz);
+        let h = sample_ggx_vndf(wo, p.alpha, vec2f(remap_below(u.x, p_spec), u.y));
         wi = reflect(-wo, h);
     } else {
-        wi = sample_cosine_hemisphere(u.yz);
+        wi = sample_cosine_hemisphere(vec2f(remap_above(u.x, p_spec), u.y));
     }
     if wi.z <= 0.0 {
         return BsdfSample(wi, 0.0, false, vec3f(0.0));

@@ -123,10 +123,10 @@ struct LightSampleEval {
     wi: vec3f,
 }
 
-// One sample of light `index`, chosen with probability p_select, with its shadow ray traced.
-fn trace_light_sample(c: ShadingContext, index: u32, p_select: f32, rng: ptr<function, u32>, rays: ptr<function, u32>) -> LightSampleEval {
+// One sample of light `index`, chosen with probability p_select, with its shadow ray traced;
+// u is the 2D sample (what the light choice left of it) for the point on the light.
+fn trace_light_sample(c: ShadingContext, index: u32, p_select: f32, u: vec2f, rays: ptr<function, u32>) -> LightSampleEval {
     var r = LightSampleEval(vec3f(0.0), 0.0, false, vec3f(0.0), vec3f(0.0));
-    let u = vec3f(rng_next(rng), rng_next2(rng));
     let ls = sample_light(index, c.s.p, u);
     if ls.pdf <= 0.0 || dot(ls.wi, c.s.ng) <= 0.0 {
         return r;
@@ -190,7 +190,7 @@ fn light_sample_value(c: ShadingContext, s: LightSampleEval, plan: SamplePlan) -
 
 // The plan's light samples: n of each light (SELECT_EACH), or n of one light chosen per sample.
 // One loop, so the shadow-ray traversal is inlined once.
-fn estimate_light_samples(c: ShadingContext, plan: SamplePlan, rng: ptr<function, u32>, rays: ptr<function, u32>) -> vec3f {
+fn estimate_light_samples(c: ShadingContext, plan: SamplePlan, stream: ptr<function, SampleStream>, rays: ptr<function, u32>) -> vec3f {
     if frame.light_count == 0u || plan.n == 0u {
         return vec3f(0.0);
     }
@@ -200,11 +200,14 @@ fn estimate_light_samples(c: ShadingContext, plan: SamplePlan, rng: ptr<function
     for (var k = 0u; k < total; k++) {
         var li = k / plan.n;
         var p_select = 1.0;
+        var u = sample_2d(stream);
         if !each {
-            li = select_light(rng_next(rng));
+            let pick = select_light(u.x);
+            li = pick.index;
+            u.x = pick.u;
             p_select = light_selection_pdf(li);
         }
-        sum += light_sample_value(c, trace_light_sample(c, li, p_select, rng, rays), plan);
+        sum += light_sample_value(c, trace_light_sample(c, li, p_select, u, rays), plan);
     }
     return sum / f32(plan.n);
 }
@@ -251,22 +254,21 @@ fn mirror_sample(c: ShadingContext, wi: vec3f, reflectance_over_pdf: vec3f) -> D
 //   uniform: the hemisphere around the shading normal, pdf 1/2π;
 //   brdf, mis: the glTF BRDF (a lobe chosen, then GGX visible normals or cosine; or the mirror);
 //   mis-lobes: the glossy lobe alone (GGX visible normals, or the mirror direction).
-fn sample_direction(c: ShadingContext, rng: ptr<function, u32>) -> DirectionSample {
+fn sample_direction(c: ShadingContext, stream: ptr<function, SampleStream>) -> DirectionSample {
     let strategy = active_strategy();
     if strategy == STRATEGY_UNIFORM {
-        let wi = sample_uniform_hemisphere(rng_next2(rng));
+        let wi = sample_uniform_hemisphere(sample_2d(stream));
         return density_sample(c, wi, uniform_hemisphere_pdf(), false, false);
     }
     if strategy == STRATEGY_MIS_LOBES {
-        let u = rng_next2(rng);
+        let u = sample_2d(stream);
         if HAS_MIRRORS && c.bsdf.delta {
             return mirror_sample(c, vec3f(-c.wo.x, -c.wo.y, c.wo.z), mirror_reflectance(c.bsdf, c.wo.z));
         }
         let wi = reflect(-c.wo, sample_ggx_vndf(c.wo, c.bsdf.alpha, u));
         return density_sample(c, wi, ggx_vndf_pdf(c.wo, wi, c.bsdf.alpha), true, true);
     }
-    let u = vec3f(rng_next(rng), rng_next2(rng));
-    let bs = bsdf_sample(c.bsdf, c.wo, u);
+    let bs = bsdf_sample(c.bsdf, c.wo, sample_2d(stream));
     if HAS_MIRRORS && bs.delta {
         var d = mirror_sample(c, bs.wi, bs.delta_reflectance / bs.pdf);
         d.valid = d.valid && bs.pdf > 0.0;
@@ -413,7 +415,7 @@ struct Estimate {
 // sample's, so the kernel inlines the closest-hit traversal (and surface_at) once: on lavapipe a
 // second call site, even one never reached, made the mis-lobes kernel 6-10% slower
 // (docs/performance.md).
-fn estimate_radiance(ray: Ray, rng: ptr<function, u32>, rays: ptr<function, u32>) -> Estimate {
+fn estimate_radiance(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<function, u32>) -> Estimate {
     var e = Estimate(vec3f(0.0), vec3f(0.0), vec3f(0.0));
     var c: ShadingContext;
     var plan = SamplePlan(0u, LIGHT_ALONE, 0u);
@@ -433,7 +435,7 @@ fn estimate_radiance(ray: Ray, rng: ptr<function, u32>, rays: ptr<function, u32>
                     e.emitted = emitted_radiance(s);
                 }
                 plan = sample_plan(c);
-                e.light = estimate_light_samples(c, plan, rng, rays);
+                e.light = estimate_light_samples(c, plan, stream, rays);
             } else {
                 e.brdf += direction_sample_value(c, d, plan, hit.tri, s);
             }
@@ -445,7 +447,7 @@ fn estimate_radiance(ray: Ray, rng: ptr<function, u32>, rays: ptr<function, u32>
         // light, and crosses some light's bounding sphere (traced only as far as that).
         d.valid = false;
         while !d.valid && taken < plan.m {
-            d = sample_direction(c, rng);
+            d = sample_direction(c, stream);
             taken += 1u;
             if d.valid {
                 origin = offset_ray_origin(c.s.p, c.s.ng, d.wi);
@@ -496,10 +498,10 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
         sum_brdf = aov_brdf[pixel];
     }
     for (var k = 0u; k < frame.sample_count; k++) {
-        var rng = rng_seed(pixel, frame.sample_start + k, frame.seed);
-        let ray = camera_ray(vec2u(px.x, px.y), rng_next2(&rng));
+        var stream = sample_stream(pixel, frame.sample_start + k, frame.seed);
+        let ray = camera_ray(vec2u(px.x, px.y), sample_2d(&stream));
         var rays = 0u;
-        let e = estimate_radiance(ray, &rng, &rays);
+        let e = estimate_radiance(ray, &stream, &rays);
         let l = e.emitted + e.light + e.brdf;
         count.rays += rays;
         // A non-finite sample is counted and dropped (as a zero), never accumulated.

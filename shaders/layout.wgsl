@@ -19,6 +19,8 @@ const SELECT_POWER: u32 = 2u;
 
 const LIGHT_SAMPLING_AREA: u32 = 0u;
 const LIGHT_SAMPLING_SOLID_ANGLE: u32 = 1u;
+const SAMPLER_SOBOL: u32 = 0u;
+const SAMPLER_INDEPENDENT: u32 = 1u;
 
 const LIGHT_AREA: u32 = 0u;
 const LIGHT_POINT: u32 = 1u;
@@ -67,6 +69,11 @@ struct FrameParams {
     // A sphere around every area light's triangles (radius 0: none), for emitter_reach.
     emitter_centre: vec3f,
     emitter_radius: f32,
+    // SAMPLER_*: where a camera sample's numbers come from (shaders/sampler.wgsl).
+    sampler: u32,
+    _pad4: u32,
+    _pad5: u32,
+    _pad6: u32,
 }
 
 // BVH2 node, 32 bytes. Inner node (count == 0): children at nodes[first] and nodes[first + 1].
@@ -238,8 +245,8 @@ struct DeferredSample {
     emitted: vec3f,
     pixel: u32,
     light: vec3f,
-    // The random stream where the light samples left it.
-    rng: u32,
+    // The sample stream's next request (shaders/sampler.wgsl), where the light samples left it.
+    stream_dim: u32,
     // The camera ray's hit.
     tri: u32,
     b1: f32,

@@ -35,40 +35,59 @@ fn light_selection_pdf(index: u32) -> f32 {
     }
 }
 
+// A discrete choice made with one uniform number u, and u remapped to a uniform number again
+// (sampling.wgsl's remap_below / remap_above), so that the same 2D sample chooses a light, an
+// emitter triangle and the point on it: the stratification of the sampler's 2D points then
+// carries over the whole light, where a separate number for the choice would deal each
+// triangle a random subset of them (Mitsuba 3's sample reuse; pbrt-v4 SampleDiscrete's uRemapped).
+struct DiscretePick {
+    index: u32,
+    u: f32,
+}
+
 // Bucket i = ⌊u N⌋ of N, and the fraction of u left over inside it (a second uniform number).
-struct AliasBucketPick {
+struct AliasBucket {
     index: u32,
     frac: f32,
 }
 
-fn alias_bucket(u: f32, n: u32) -> AliasBucketPick {
+fn alias_bucket(u: f32, n: u32) -> AliasBucket {
     let x = u * f32(n);
     let i = min(u32(x), n - 1u);
-    return AliasBucketPick(i, clamp(x - f32(i), 0.0, 1.0));
+    return AliasBucket(i, clamp(x - f32(i), 0.0, 1.0));
 }
 
-// A light with probability light_picks[i].pdf, by the alias method (Walker 1977; Vose 1991):
-// O(1), where a binary search over the power CDF took log2(N) dependent loads.
-fn select_light_by_power(u: f32) -> u32 {
+// The alias method (Walker 1977; Vose 1991): the bucket keeps its own outcome with probability
+// `keep`, else gives its alias. O(1), where a binary search over a CDF took log2(N) loads.
+fn alias_pick(b: AliasBucket, keep: f32, own: u32, other: u32) -> DiscretePick {
+    if b.frac < keep {
+        return DiscretePick(own, remap_below(b.frac, keep));
+    }
+    return DiscretePick(other, remap_above(b.frac, keep));
+}
+
+// A light with probability light_picks[i].pdf, by the lights' alias table.
+fn select_light_by_power(u: f32) -> DiscretePick {
     let b = alias_bucket(u, frame.light_count);
-    let pick = light_picks[b.index];
-    return select(pick.alias_index, b.index, b.frac < pick.alias_prob);
+    let bucket = light_picks[b.index];
+    return alias_pick(b, bucket.alias_prob, b.index, bucket.alias_index);
 }
 
-fn select_light(u: f32) -> u32 {
+fn select_light(u: f32) -> DiscretePick {
     if frame.light_selection == SELECT_POWER {
         return select_light_by_power(u);
     }
-    return min(u32(u * f32(frame.light_count)), frame.light_count - 1u);
+    let b = alias_bucket(u, frame.light_count);
+    return DiscretePick(b.index, remap_below(b.frac, 1.0));
 }
 
 // An emitter triangle of `light` with probability proportional to its area, by the light's
-// alias table (as select_light_by_power).
-fn select_emitter_triangle(light: Light, u: f32) -> u32 {
+// alias table (as select_light_by_power); the index is into emitter_tris.
+fn select_emitter_triangle(light: Light, u: f32) -> DiscretePick {
     let b = alias_bucket(u, light.tri_count);
     let ti = light.first_tri + b.index;
     let bucket = emitter_tris[ti];
-    return select(bucket.alias_index, ti, b.frac < bucket.alias_prob);
+    return alias_pick(b, bucket.alias_prob, ti, bucket.alias_index);
 }
 
 // Does the light emit towards a receiver lying along -wi from a point with normal n_l?
@@ -106,19 +125,21 @@ fn spherical_sampling_solid_angle(x: vec3f, p0: vec3f, p1: vec3f, p2: vec3f) -> 
 // converted to solid angle), or, with LIGHT_SAMPLING_SOLID_ANGLE, a direction uniform in the
 // triangle's solid angle (pdf P(triangle) / Ω, Arvo 1995), which stays bounded where r² → 0
 // at a contact edge and where cos θ_l → 0 at grazing angles.
-fn sample_area_light(light: Light, x: vec3f, u: vec3f) -> LightSample {
-    let ti = select_emitter_triangle(light, u.x);
+fn sample_area_light(light: Light, x: vec3f, u_light: vec2f) -> LightSample {
+    let pick = select_emitter_triangle(light, u_light.x);
+    let ti = pick.index;
+    let u = vec2f(pick.u, u_light.y);
     let tri = emitter_tris[ti];
     let p1 = tri.p0 + tri.e1;
     let p2 = tri.p0 + tri.e2;
     let n = cross(tri.e1, tri.e2);
     let n_l = normalize(n);
-    var b = sample_uniform_triangle(u.yz);
+    var b = sample_uniform_triangle(u);
     var y = tri.p0 + b.x * tri.e1 + b.y * tri.e2;
     let omega = spherical_sampling_solid_angle(x, tri.p0, p1, p2);
     var failed = false;
     if omega > 0.0 {
-        let w = sample_spherical_triangle(x, tri.p0, p1, p2, u.yz);
+        let w = sample_spherical_triangle(x, tri.p0, p1, p2, u);
         // The point where the direction meets the triangle's plane, and its barycentrics.
         let t = dot(tri.p0 - x, n) / dot(w, n);
         failed = all(w == vec3f(0.0)) || !(t > 0.0);
@@ -170,7 +191,7 @@ fn sample_delta_light(light: Light, x: vec3f) -> LightSample {
 }
 
 // Sample light `index` from x; the returned pdf excludes the selection probability.
-fn sample_light(index: u32, x: vec3f, u: vec3f) -> LightSample {
+fn sample_light(index: u32, x: vec3f, u: vec2f) -> LightSample {
     let light = lights[index];
     if HAS_AREA_LIGHTS && light.kind == LIGHT_AREA {
         return sample_area_light(light, x, u);

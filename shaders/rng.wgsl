@@ -1,5 +1,6 @@
-// rng.wgsl: counter-based random numbers. Every (pixel, camera sample, seed) triple gets its own
-// stream, so an image does not depend on how the work was split into dispatches.
+// rng.wgsl: counter-based independent random numbers: the hash that seeds sampler.wgsl's streams,
+// and the independent samples the test kernels feed to chi-square tests. The renderer's estimates
+// take theirs from sampler.wgsl.
 
 // PCG hash: Jarzynski & Olano, "Hash Functions for GPU Rendering", JCGT 9(3), 2020.
 fn pcg_hash(v: u32) -> u32 {

@@ -3,6 +3,18 @@
 const PI: f32 = 3.14159265358979;
 const INV_PI: f32 = 0.318309886183791;
 const INV_TWO_PI: f32 = 0.159154943091895;
+// The largest f32 below 1.
+const ONE_MINUS_EPSILON: f32 = 0.99999994;
+
+// Sample reuse: a uniform u that chose the outcome of probability p (u < p) is uniform again as
+// u / p, and one that chose the rest as (u - p) / (1 - p) (pbrt-v4 §A.1, SampleDiscrete).
+fn remap_below(u: f32, p: f32) -> f32 {
+    return min(u / p, ONE_MINUS_EPSILON);
+}
+
+fn remap_above(u: f32, p: f32) -> f32 {
+    return clamp((u - p) / (1.0 - p), 0.0, ONE_MINUS_EPSILON);
+}
 
 // Orthonormal frame around a unit normal. Duff et al., "Building an Orthonormal Basis,
 // Revisited", JCGT 6(1), 2017.

@@ -15,6 +15,9 @@ const TEST_SAMPLE_BSDF: u32 = 3u;
 const TEST_SAMPLE_LIGHT: u32 = 4u;
 // out[i] = (chosen light index, its selection probability, 0, 0).
 const TEST_SELECT_LIGHT: u32 = 5u;
+// test_in[i] = (pixel, camera sample index, request number, 0): out[i] = (sample_2d, 0, 0) of
+// that stream after that many requests, with the frame's sampler and test.seed.
+const TEST_SAMPLE_STREAM: u32 = 6u;
 // pdf functions at direction test_in[i].xyz: out[i] = (pdf, 0, 0, 0).
 const TEST_PDF_UNIFORM: u32 = 10u;
 const TEST_PDF_COSINE: u32 = 11u;
@@ -80,7 +83,7 @@ fn run_test(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) 
             write_sample(i, wi, pdf, pdf, 0.0);
         }
         case TEST_SAMPLE_BSDF: {
-            let s = bsdf_sample(p, wo, u);
+            let s = bsdf_sample(p, wo, u.xy);
             var weight = 0.0;
             if s.delta {
                 weight = max3(s.delta_reflectance / s.pdf);
@@ -90,11 +93,17 @@ fn run_test(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) 
             write_sample(i, s.wi, s.pdf, bsdf_pdf(p, wo, s.wi), weight);
         }
         case TEST_SAMPLE_LIGHT: {
-            let ls = sample_light(test.light_index, test.point, u);
+            let ls = sample_light(test.light_index, test.point, u.xy);
             write_sample(i, ls.wi, ls.pdf, traced_light_pdf(test.point, ls.wi), 0.0);
         }
+        case TEST_SAMPLE_STREAM: {
+            let q = test_in[i];
+            var stream = sample_stream(u32(q.x), u32(q.y), test.seed);
+            stream.dim = u32(q.z);
+            test_out[i] = vec4f(sample_2d(&stream), 0.0, 0.0);
+        }
         case TEST_SELECT_LIGHT: {
-            let index = select_light(u.x);
+            let index = select_light(u.x).index;
             test_out[i] = vec4f(f32(index), light_selection_pdf(index), 0.0, 0.0);
         }
         case TEST_PDF_UNIFORM: {

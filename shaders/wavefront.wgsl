@@ -12,7 +12,7 @@
 //                           sample is added to its pixel.
 // A dispatch runs these three once per camera sample (a round), so that a pixel has at most one
 // deferred sample at a time and the last kernel adds to its sums without atomics.
-// The random stream continues where the light samples left it, so the image is the one
+// The sample stream continues where the light samples left it, so the image is the one
 // `render` makes, sample for sample (tests/specialise.rs).
 
 @compute @workgroup_size(8, 8, 1)
@@ -22,8 +22,8 @@ fn render_light_pass(@builtin(global_invocation_id) gid: vec3u) {
         return;
     }
     let pixel = px.index;
-    var rng = rng_seed(pixel, frame.sample_start + deferred_header.round, frame.seed);
-    let ray = camera_ray(vec2u(px.x, px.y), rng_next2(&rng));
+    var stream = sample_stream(pixel, frame.sample_start + deferred_header.round, frame.seed);
+    let ray = camera_ray(vec2u(px.x, px.y), sample_2d(&stream));
     var rays = 1u;
     var e = Estimate(vec3f(0.0), vec3f(0.0), vec3f(0.0));
     let hit = trace_closest(ray.origin, ray.dir, RAY_INF);
@@ -33,10 +33,10 @@ fn render_light_pass(@builtin(global_invocation_id) gid: vec3u) {
             e.emitted = emitted_radiance(c.s);
         }
         let plan = sample_plan(c);
-        e.light = estimate_light_samples(c, plan, &rng, &rays);
+        e.light = estimate_light_samples(c, plan, &stream, &rays);
         if plan.m > 0u {
             let slot = atomicAdd(&deferred_header.count, 1u);
-            deferred[slot] = DeferredSample(e.emitted, pixel, e.light, rng, hit.tri, hit.b1, hit.b2, plan.n | (plan.m << 16u), rays, 0u, 0u, 0u);
+            deferred[slot] = DeferredSample(e.emitted, pixel, e.light, stream.dim, hit.tri, hit.b1, hit.b2, plan.n | (plan.m << 16u), rays, 0u, 0u, 0u);
             return;
         }
     }
@@ -59,10 +59,10 @@ fn prepare_direction_pass() {
 
 // The m direction samples of a deferred camera sample: the samples estimate_radiance's loop
 // takes after the camera hit, in the same order from the same random stream.
-fn estimate_direction_samples(c: ShadingContext, plan: SamplePlan, rng: ptr<function, u32>, rays: ptr<function, u32>) -> vec3f {
+fn estimate_direction_samples(c: ShadingContext, plan: SamplePlan, stream: ptr<function, SampleStream>, rays: ptr<function, u32>) -> vec3f {
     var sum = vec3f(0.0);
     for (var k = 0u; k < plan.m; k++) {
-        let d = sample_direction(c, rng);
+        let d = sample_direction(c, stream);
         if !d.valid {
             continue;
         }
@@ -90,13 +90,14 @@ fn render_direction_pass(@builtin(global_invocation_id) gid: vec3u) {
     // The camera ray again, from the start of the sample's stream.
     let x = q.pixel % frame.width;
     let y = q.pixel / frame.width;
-    var camera_rng = rng_seed(q.pixel, frame.sample_start + deferred_header.direction_round, frame.seed);
-    let ray = camera_ray(vec2u(x, y), rng_next2(&camera_rng));
+    var stream = sample_stream(q.pixel, frame.sample_start + deferred_header.direction_round, frame.seed);
+    let ray = camera_ray(vec2u(x, y), sample_2d(&stream));
     let hit = Hit(0.0, q.b1, q.b2, q.tri, true);
     let c = shading_context(surface_at(hit, ray.dir), ray.dir);
     let plan = SamplePlan(q.plan & 0xffffu, LIGHT_ALONE, q.plan >> 16u);
-    var rng = q.rng;
+    // The stream where the light samples left it.
+    stream.dim = q.stream_dim;
     var rays = q.rays;
-    let brdf = estimate_direction_samples(c, plan, &rng, &rays);
+    let brdf = estimate_direction_samples(c, plan, &stream, &rays);
     add_sample(q.pixel, Estimate(q.emitted, q.light, brdf), rays);
 }

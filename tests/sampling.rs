@@ -5,7 +5,8 @@
 //!   area-light sampling of a triangle seen from a point, and light selection;
 //! - the pdf a sampler returns equals the pdf function at the same direction, and the pdf
 //!   integrates to the fraction of valid samples;
-//! - white furnace, non-negative finite BRDF values, and the MIS weights.
+//! - white furnace, non-negative finite BRDF values, and the MIS weights;
+//! - the sampler's Sobol points are nets in every aligned block, and its requests independent.
 //!
 //! Chi-square: Pearson's test with bins of low expected count (< 5) pooled, as Mitsuba 3's
 //! `chi2` test does, at significance 1% with a Bonferroni correction over all cases of a test.
@@ -762,4 +763,96 @@ fn encoded_normals_decode_within_1e4_radians() {
         let angle = cross_len.atan2(dot);
         assert!(angle < 1e-4, "normal {n:?} decoded as {d:?}: {angle:e} rad off");
     }
+}
+
+/// The sampler's 2D points (`shaders/sampler.wgsl`, `sample_2d`) for the given (pixel, camera
+/// sample index, request) triples.
+fn stream_points(frame: &FrameParams, seed: u32, queries: &[(u32, u32, u32)]) -> Vec<[f64; 2]> {
+    let input: Vec<[f32; 4]> = queries.iter().map(|&(p, i, d)| [p as f32, i as f32, d as f32, 0.0]).collect();
+    let params = TestParams { routine: routine::SAMPLE_STREAM, count: input.len() as u32, seed, ..Default::default() };
+    let out = kernel().run(empty_scene(), frame, &params, &input, 1).unwrap();
+    out.iter().map(|o| [o[0] as f64, o[1] as f64]).collect()
+}
+
+/// Owen-scrambled Sobol points keep the (0,2)-sequence property: every aligned block of 2^m
+/// consecutive camera samples of a pixel puts exactly one point in each elementary interval
+/// [i/2^a, (i+1)/2^a) × [j/2^b, (j+1)/2^b) with a + b = m (Niederreiter 1992, def. 4.1; kept by
+/// nested scrambling, Owen 1995, and by Burley's index shuffle, which maps aligned blocks onto
+/// aligned blocks). A wrong direction number, a scramble that is not nested, or a shuffle that
+/// breaks blocks puts two points in some interval. Exact, no statistics: every m ≤ 10, every
+/// block, for several pixels, requests and seeds.
+#[test]
+fn sobol_points_are_nets_in_every_aligned_block() {
+    const M: u32 = 10;
+    let n = 1u32 << M;
+    for (pixel, request, seed) in [(0, 0, 0), (1, 1, 7), (65535, 2, 3), (12345, 9, 1_000_003)] {
+        let queries: Vec<(u32, u32, u32)> = (0..n).map(|i| (pixel, i, request)).collect();
+        let points = stream_points(&FrameParams::default(), seed, &queries);
+        for m in 0..=M {
+            for block in points.chunks(1 << m) {
+                for a in 0..=m {
+                    let b = m - a;
+                    let mut seen = vec![false; 1 << m];
+                    for p in block {
+                        assert!(
+                            (0.0..1.0).contains(&p[0]) && (0.0..1.0).contains(&p[1]),
+                            "point {p:?} outside [0, 1)²"
+                        );
+                        let i = (p[0] * (1u64 << a) as f64) as usize;
+                        let j = (p[1] * (1u64 << b) as f64) as usize;
+                        let cell = (i << b) | j;
+                        assert!(
+                            !seen[cell],
+                            "pixel {pixel}, request {request}, seed {seed}: two of a block of 2^{m} samples in the \
+                             elementary interval ({i}/2^{a}, {j}/2^{b})"
+                        );
+                        seen[cell] = true;
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// What the nets above cannot show: that different requests of a camera sample, and the same
+/// request in different pixels, are independent. Chi-square of 16×16 histograms against
+/// uniform: (x, y) of one request; the x of request 0 against the x of request 1 (the same index
+/// with only the values scrambled would put those on a scrambled diagonal: half the cells empty);
+/// and sample 0 of 4096 pixels. Stratified marginals make the counts *less* variable than
+/// multinomial, so only a too-large chi-square fails, at significance 1e-3 over the cases
+/// (Bonferroni). The independent sampler is held to the same test.
+#[test]
+fn sampler_requests_and_pixels_are_independent() {
+    const N: u32 = 4096;
+    const BINS: usize = 16;
+    let mut failures = Vec::new();
+    let samplers = [("sobol", layout::SAMPLER_SOBOL), ("independent", layout::SAMPLER_INDEPENDENT)];
+    let cases = 3 * samplers.len();
+    for (name, sampler) in samplers {
+        let frame = FrameParams { sampler, ..Default::default() };
+        let within: Vec<(u32, u32, u32)> = (0..N).flat_map(|i| [(77, i, 0), (77, i, 1)]).collect();
+        let w = stream_points(&frame, 5, &within);
+        let across: Vec<(u32, u32, u32)> = (0..N).map(|p| (p, 0, 0)).collect();
+        let a = stream_points(&frame, 5, &across);
+        let pairs: [(&str, Vec<[f64; 2]>); 3] = [
+            ("one request's (x, y)", w.chunks(2).map(|c| c[0]).collect()),
+            ("x of requests 0 and 1", w.chunks(2).map(|c| [c[0][0], c[1][0]]).collect()),
+            ("sample 0 across pixels", a),
+        ];
+        for (what, points) in pairs {
+            let mut observed = vec![0.0; BINS * BINS];
+            for p in &points {
+                let i = ((p[0] * BINS as f64) as usize).min(BINS - 1);
+                let j = ((p[1] * BINS as f64) as usize).min(BINS - 1);
+                observed[i * BINS + j] += 1.0;
+            }
+            let expected = vec![N as f64 / (BINS * BINS) as f64; BINS * BINS];
+            let (p_value, _) = chi_square(&observed, &expected);
+            if p_value < 1e-3 / cases as f64 {
+                write_histograms(&format!("sampler {name} {what}"), &observed, &expected, BINS, BINS);
+                failures.push(format!("{name}: {what}: chi-square p = {p_value:.2e}"));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

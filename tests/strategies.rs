@@ -5,7 +5,7 @@
 mod common;
 
 use common::*;
-use veach::{Heuristic, LightSampling, LightSelection, RenderSettings, Strategy};
+use veach::{Heuristic, LightSampling, LightSelection, RenderSettings, Sampler, Strategy};
 
 struct Config {
     name: &'static str,
@@ -60,6 +60,8 @@ fn check_scene(scene_name: &str, width: u32, height: u32, block: u32, reference:
         heuristic: c.heuristic,
         light_sampling: c.sampling,
         seed,
+        // σ from each pixel's sample variance / n: true of independent samples only.
+        sampler: Sampler::Independent,
         ..Default::default()
     };
     let reference_out = render(&gpu_scene, &settings(&reference, 1), &camera);

@@ -6,7 +6,7 @@ mod common;
 
 use common::*;
 use veach::assets::stress::{STRESS_SCENES, stress_scene};
-use veach::{Heuristic, LightSelection, RenderSettings, Strategy};
+use veach::{Heuristic, LightSelection, RenderSettings, Sampler, Strategy};
 
 fn stress(name: &str) -> veach::Scene {
     load(&stress_scene(name).expect("a stress scene"), &format!("stress-{name}"))
@@ -88,6 +88,8 @@ fn a_scene_far_from_the_origin_renders_like_the_same_scene_at_the_origin() {
         light_samples: 2,
         brdf_samples: 2,
         seed,
+        // σ from each pixel's sample variance / n: true of independent samples only.
+        sampler: Sampler::Independent,
         ..Default::default()
     };
     let a = render(&upload(&near), &s(1), &near.camera(None).unwrap());

@@ -86,6 +86,42 @@ pub fn erfc(x: f64) -> f64 {
     if x >= 0.0 { r } else { 2.0 - r }
 }
 
+/// Student's t with ν degrees of freedom: P(|T| > t). Abramowitz & Stegun 26.7.3-4: with
+/// θ = atan(t / √ν), P(|T| ≤ t) is sin θ Σ_{k<ν/2} c_k cos^{2k} θ (c_0 = 1, c_k = c_{k−1} (2k − 1) / 2k)
+/// for even ν, and (2/π) (θ + sin θ Σ_{k<(ν−1)/2} d_k cos^{2k+1} θ) (d_0 = 1, d_k = d_{k−1} 2k / (2k + 1))
+/// for odd ν.
+pub fn student_t_two_sided_tail(t: f64, nu: u32) -> f64 {
+    assert!(nu >= 1);
+    let theta = (t / (nu as f64).sqrt()).atan();
+    let (sin, cos) = (theta.sin(), theta.cos());
+    let inside = if nu.is_multiple_of(2) {
+        let (mut term, mut sum) = (1.0, 1.0);
+        for k in 1..nu / 2 {
+            term *= cos * cos * (2 * k - 1) as f64 / (2 * k) as f64;
+            sum += term;
+        }
+        sin * sum
+    } else {
+        let (mut term, mut sum) = (cos, if nu > 1 { cos } else { 0.0 });
+        for k in 1..(nu - 1) / 2 {
+            term *= cos * cos * (2 * k) as f64 / (2 * k + 1) as f64;
+            sum += term;
+        }
+        2.0 / std::f64::consts::PI * (theta + sin * sum)
+    };
+    (1.0 - inside).clamp(0.0, 1.0)
+}
+
+/// Two-sided critical t for ν degrees of freedom: P(|T| > t) = tail, by bisection.
+pub fn student_t_critical(tail: f64, nu: u32) -> f64 {
+    let (mut lo, mut hi) = (0.0, 1e6);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if student_t_two_sided_tail(mid, nu) > tail { lo = mid } else { hi = mid }
+    }
+    hi
+}
+
 /// Two-sided critical z for `comparisons` tests at family-wise significance `alpha`
 /// (Bonferroni): P(|Z| > z) = alpha / comparisons.
 pub fn bonferroni_z(alpha: f64, comparisons: usize) -> f64 {

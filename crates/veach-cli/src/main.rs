@@ -7,7 +7,9 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
-use veach::{Execution, GpuContext, Heuristic, LightSampling, LightSelection, RenderSettings, Renderer, Strategy};
+use veach::{
+    Execution, GpuContext, Heuristic, LightSampling, LightSelection, RenderSettings, Renderer, Sampler, Strategy,
+};
 
 #[derive(Parser)]
 #[command(
@@ -134,6 +136,14 @@ enum LightSamplingArg {
 }
 
 #[derive(Clone, Copy, ValueEnum)]
+enum SamplerArg {
+    /// Owen-scrambled Sobol points: each pixel's camera samples stratified (Burley 2020)
+    Sobol,
+    /// Independent uniform random numbers (plain Monte Carlo)
+    Independent,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
 enum ExecutionArg {
     Auto,
     Megakernel,
@@ -193,6 +203,9 @@ struct RenderArgs {
     /// How a light sample picks its point on an emitter triangle
     #[arg(long, value_enum, default_value_t = LightSamplingArg::Area)]
     light_sampling: LightSamplingArg,
+    /// Where the camera samples' random numbers come from
+    #[arg(long, value_enum, default_value_t = SamplerArg::Sobol)]
+    sampler: SamplerArg,
     /// Leave out emission seen directly by camera rays: reflected light only, as `veach bench`
     /// measures it
     #[arg(long)]
@@ -267,6 +280,9 @@ struct ViewArgs {
     /// How a light sample picks its point on an emitter triangle
     #[arg(long, value_enum, default_value_t = LightSamplingArg::Area)]
     light_sampling: LightSamplingArg,
+    /// Where the camera samples' random numbers come from
+    #[arg(long, value_enum, default_value_t = SamplerArg::Sobol)]
+    sampler: SamplerArg,
     #[arg(long, default_value_t = 0)]
     seed: u32,
     /// Stop accumulating at this many camera samples per pixel (0: never)
@@ -432,6 +448,7 @@ fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
         heuristic: heuristic_of(args.heuristic),
         light_selection: selection_of(args.light_selection),
         light_sampling: light_sampling_of(args.light_sampling),
+        sampler: sampler_of(args.sampler),
         seed: args.seed,
         time_limit,
         hide_emitters: args.hide_emitters,
@@ -474,6 +491,7 @@ fn view(args: ViewArgs) -> Result<()> {
         heuristic: heuristic_of(args.heuristic),
         light_selection: selection_of(args.light_selection),
         light_sampling: light_sampling_of(args.light_sampling),
+        sampler: sampler_of(args.sampler),
         seed: args.seed,
         ..options.settings
     };
@@ -506,6 +524,13 @@ fn light_sampling_of(arg: LightSamplingArg) -> LightSampling {
     match arg {
         LightSamplingArg::Area => LightSampling::Area,
         LightSamplingArg::SolidAngle => LightSampling::SolidAngle,
+    }
+}
+
+fn sampler_of(arg: SamplerArg) -> Sampler {
+    match arg {
+        SamplerArg::Sobol => Sampler::Sobol,
+        SamplerArg::Independent => Sampler::Independent,
     }
 }
 

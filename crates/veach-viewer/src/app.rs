@@ -11,7 +11,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Duration;
 use veach::scene::Camera;
-use veach::{Execution, Heuristic, LightSampling, LightSelection, RenderSettings, Renderer, Strategy};
+use veach::{Execution, Heuristic, LightSampling, LightSelection, RenderSettings, Renderer, Sampler, Strategy};
 
 /// How the viewer starts.
 #[derive(Clone, Debug)]
@@ -50,6 +50,7 @@ pub struct Controls {
     pub heuristic: Heuristic,
     pub light_selection: LightSelection,
     pub light_sampling: LightSampling,
+    pub sampler: Sampler,
     pub execution: Execution,
     pub light_samples: u32,
     pub brdf_samples: u32,
@@ -107,6 +108,7 @@ impl ViewerApp {
             heuristic: s.heuristic,
             light_selection: s.light_selection,
             light_sampling: s.light_sampling,
+            sampler: s.sampler,
             execution: s.execution,
             light_samples: s.light_samples,
             brdf_samples: s.brdf_samples,
@@ -159,6 +161,7 @@ impl ViewerApp {
             heuristic: c.heuristic,
             light_selection: c.light_selection,
             light_sampling: c.light_sampling,
+            sampler: c.sampler,
             execution: c.execution,
             seed: c.seed,
             write_aovs: c.view.needs_contributions(),
@@ -189,7 +192,13 @@ impl ViewerApp {
             LightSelection::Uniform => "uniform light",
             LightSelection::Power => "light by power",
         };
-        format!("{} {counts}, {selection} ({}), seed {}", s.strategy.name(), s.light_sampling.name(), s.seed)
+        format!(
+            "{} {counts}, {selection} ({}), {} samples, seed {}",
+            s.strategy.name(),
+            s.light_sampling.name(),
+            s.sampler.name(),
+            s.seed
+        )
     }
 
     /// Restarts accumulation when the wanted settings or camera differ from the current ones.
@@ -372,6 +381,14 @@ impl ViewerApp {
             ui.label("point on a light");
             ui.radio_value(&mut c.light_sampling, LightSampling::Area, "uniform in area");
             ui.radio_value(&mut c.light_sampling, LightSampling::SolidAngle, "uniform in solid angle");
+        });
+        ui.horizontal(|ui| {
+            ui.label("samples").on_hover_text(
+                "sobol: each pixel's camera samples stratified (Owen-scrambled Sobol points); \
+                 independent: plain Monte Carlo",
+            );
+            ui.radio_value(&mut c.sampler, Sampler::Sobol, "sobol");
+            ui.radio_value(&mut c.sampler, Sampler::Independent, "independent");
         });
         // The same image either way: only the speed differs (docs/performance.md).
         ui.horizontal(|ui| {

@@ -8,7 +8,7 @@
 
 use crate::error::{Error, Result};
 use crate::render::{
-    GpuScene, Heuristic, LightSampling, LightSelection, RenderOutput, RenderSettings, Renderer, Strategy,
+    GpuScene, Heuristic, LightSampling, LightSelection, RenderOutput, RenderSettings, Renderer, Sampler, Strategy,
 };
 use crate::scene::Camera;
 use std::time::Duration;
@@ -32,6 +32,7 @@ pub struct BenchStrategy {
     pub heuristic: Heuristic,
     pub light_selection: LightSelection,
     pub light_sampling: LightSampling,
+    pub sampler: Sampler,
 }
 
 /// The strategies `veach bench` runs unless told otherwise.
@@ -43,8 +44,9 @@ pub fn default_strategies() -> Vec<BenchStrategy> {
         .collect()
 }
 
-/// Every strategy `--strategies` can name: the defaults, and the light-sampling ones again with
-/// solid-angle sampling of emitter triangles (suffix `-solid-angle`).
+/// Every strategy `--strategies` can name: the defaults, the light-sampling ones again with
+/// solid-angle sampling of emitter triangles (suffix `-solid-angle`), and each of those with
+/// independent random numbers instead of Sobol points (suffix `-independent`).
 pub fn strategy_catalogue() -> Vec<BenchStrategy> {
     let mut all = area_strategies();
     let solid: Vec<BenchStrategy> = all
@@ -57,6 +59,11 @@ pub fn strategy_catalogue() -> Vec<BenchStrategy> {
         })
         .collect();
     all.extend(solid);
+    let independent: Vec<BenchStrategy> = all
+        .iter()
+        .map(|s| BenchStrategy { name: format!("{}-independent", s.name), sampler: Sampler::Independent, ..s.clone() })
+        .collect();
+    all.extend(independent);
     all
 }
 
@@ -85,6 +92,7 @@ fn area_strategies() -> Vec<BenchStrategy> {
         heuristic,
         light_selection: LightSelection::Power,
         light_sampling: LightSampling::Area,
+        sampler: Sampler::Sobol,
     };
     vec![
         s("uniform", Strategy::Uniform, 0, 2, Heuristic::Balance),
@@ -244,6 +252,7 @@ pub fn render_settings(s: &BenchStrategy, width: u32, height: u32, budget: &Budg
         heuristic: s.heuristic,
         light_selection: s.light_selection,
         light_sampling: s.light_sampling,
+        sampler: s.sampler,
         seed,
         time_limit,
         // Short dispatches keep a time budget from overshooting.

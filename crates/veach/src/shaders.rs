@@ -7,6 +7,7 @@ pub const SHADER_FILES: &[(&str, &str)] = &[
     ("layout.wgsl", include_str!("../../../shaders/layout.wgsl")),
     ("features.wgsl", include_str!("../../../shaders/features.wgsl")),
     ("rng.wgsl", include_str!("../../../shaders/rng.wgsl")),
+    ("sampler.wgsl", include_str!("../../../shaders/sampler.wgsl")),
     ("sampling.wgsl", include_str!("../../../shaders/sampling.wgsl")),
     ("camera.wgsl", include_str!("../../../shaders/camera.wgsl")),
     ("traverse.wgsl", include_str!("../../../shaders/traverse.wgsl")),

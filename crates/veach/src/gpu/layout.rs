@@ -19,6 +19,8 @@ pub const SELECT_POWER: u32 = 2;
 
 pub const LIGHT_SAMPLING_AREA: u32 = 0;
 pub const LIGHT_SAMPLING_SOLID_ANGLE: u32 = 1;
+pub const SAMPLER_SOBOL: u32 = 0;
+pub const SAMPLER_INDEPENDENT: u32 = 1;
 
 pub const LIGHT_AREA: u32 = 0;
 pub const LIGHT_POINT: u32 = 1;
@@ -68,6 +70,8 @@ pub struct FrameParams {
     pub light_sampling: u32,
     pub emitter_centre: [f32; 3],
     pub emitter_radius: f32,
+    pub sampler: u32,
+    pub _pad4: [u32; 3],
 }
 
 #[repr(C)]
@@ -225,7 +229,7 @@ pub struct DeferredSample {
     pub emitted: [f32; 3],
     pub pixel: u32,
     pub light: [f32; 3],
-    pub rng: u32,
+    pub stream_dim: u32,
     pub tri: u32,
     pub b1: f32,
     pub b2: f32,
@@ -280,7 +284,8 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             hide_emitters,
             light_sampling,
             emitter_centre,
-            emitter_radius
+            emitter_radius,
+            sampler
         }),
         layout!(BvhNode { min, first, max, count }),
         layout!(Vertex { p, normal }),
@@ -321,7 +326,7 @@ pub fn rust_layouts() -> Vec<StructLayout> {
         layout!(LightPick { pdf, alias_prob, alias_index }),
         layout!(TestParams { routine, count, seed, light_index, wo, point, material }),
         layout!(PixelCounters { rays, nonfinite }),
-        layout!(DeferredSample { emitted, pixel, light, rng, tri, b1, b2, plan, rays }),
+        layout!(DeferredSample { emitted, pixel, light, stream_dim, tri, b1, b2, plan, rays }),
         layout!(DeferredHeader { count, pending, round, direction_round }),
     ]
 }

@@ -16,6 +16,7 @@ pub mod routine {
     pub const SAMPLE_BSDF: u32 = 3;
     pub const SAMPLE_LIGHT: u32 = 4;
     pub const SELECT_LIGHT: u32 = 5;
+    pub const SAMPLE_STREAM: u32 = 6;
     pub const PDF_UNIFORM: u32 = 10;
     pub const PDF_COSINE: u32 = 11;
     pub const PDF_GGX_VNDF: u32 = 12;
