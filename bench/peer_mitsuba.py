@@ -14,12 +14,18 @@ uploads excluded), Mitsuba's wall clock around mi.render after one untimed rende
 sample count (so that its JIT compilation is excluded too). relMSE = mean over pixels and
 channels of (x - r)^2 / (r^2 + 1e-2), efficiency = 1 / (relMSE x seconds).
 
+Samplers: veach uses its default, Owen-scrambled Sobol points (--veach-sampler). Mitsuba is run
+with each sampler of --mitsuba-samplers (default: `independent`, its default, and `multijitter`,
+its best at equal time on these scenes: docs/performance.md), one table each, so that veach is
+compared with Mitsuba as a user would configure it, not only with its default.
+
 Where the two BRDFs differ by definition (glTF's Schlick Fresnel and height-correlated Smith
 term against Mitsuba's perfect conductor tinted by specular_reflectance and separable Smith
 term, on metals), Mitsuba converges to a different image: the script also renders Mitsuba at
---mitsuba-reference-spp and reports the relMSE between the two references, which is the floor
-under Mitsuba's error against veach's reference. On an all-Lambertian scene (the Cornell box)
-the two references must agree.
+--mitsuba-reference-spp (multijitter) and reports the relMSE between the two references, which is
+the floor under Mitsuba's error against veach's reference. Each table also gives Mitsuba's error
+against its own reference and the efficiency ratio with each renderer against its own reference
+(noise only, no floor). On an all-Lambertian scene (the Cornell box) the two references must agree.
 
 Needs: `pip install mitsuba numpy`; Mitsuba's LLVM variants need libLLVM >= 16
 (Debian 12: `apt-get install libllvm19`, then DRJIT_LIBLLVM_PATH=/usr/lib/x86_64-linux-gnu/libLLVM.so.19.1).
@@ -64,11 +70,12 @@ def run(cmd):
     return p
 
 
-def veach_render(veach, scene, out, width, height, spp, seed, light, brdf, strategy="mis", selection="power"):
+def veach_render(veach, scene, out, width, height, spp, seed, light, brdf, strategy="mis", selection="power",
+                 sampler="sobol"):
     stats = out.with_suffix(".json")
     run([veach, "render", scene, "-o", out, "--width", str(width), "--height", str(height), "--spp", str(spp),
          "--seed", str(seed), "--strategy", strategy, "--light-samples", str(light), "--brdf-samples", str(brdf),
-         "--light-selection", selection, "--hide-emitters", "--stats", stats, "--quiet"])
+         "--light-selection", selection, "--sampler", sampler, "--hide-emitters", "--stats", stats, "--quiet"])
     s = json.loads(stats.read_text())
     veach_render.driver = f"{s['adapter']}, {s.get('driver', 'driver unknown')}"
     return read_pfm(out), s["timings_seconds"]["render"]
@@ -85,11 +92,15 @@ def main():
     ap.add_argument("--reference-spp", type=int, default=512)
     ap.add_argument("--mitsuba-reference-spp", type=int, default=4096)
     ap.add_argument("--veach", default="target/release/veach")
+    ap.add_argument("--veach-sampler", default="sobol", choices=["sobol", "independent"])
+    ap.add_argument("--mitsuba-samplers", default="independent,multijitter",
+                    help="comma-separated Mitsuba sampler plugins, one table each")
     args = ap.parse_args()
 
     import drjit as dr
     import mitsuba as mi
     mi.set_variant("llvm_ad_rgb")
+    samplers = [x.strip() for x in args.mitsuba_samplers.split(",") if x.strip()]
 
     out_dir = Path(args.output)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -107,8 +118,8 @@ def main():
             veach_render(args.veach, scene, ref_path, w, h, args.reference_spp, 0x5eed, 4, 4, selection="each")
         reference = read_pfm(ref_path)
 
-        def mitsuba_render(spp, seed, timed=True):
-            m_scene = mi.load_file(str(xml_dir / "scene.xml"), spp=spp, width=w, height=h)
+        def mitsuba_render(spp, seed, sampler, timed=True):
+            m_scene = mi.load_file(str(xml_dir / "scene.xml"), spp=spp, width=w, height=h, sampler=sampler)
             if timed:
                 dr.eval(mi.render(m_scene, seed=seed + 1000, spp=spp))  # compile, untimed
                 dr.sync_thread()
@@ -119,44 +130,57 @@ def main():
             seconds = time.perf_counter() - t0
             return np.array(img, dtype=np.float64)[..., :3], seconds
 
-        m_ref_path = out_dir / f"{name}-mitsuba-reference-{args.mitsuba_reference_spp}spp.npy"
+        m_ref_path = out_dir / f"{name}-mitsuba-reference-{args.mitsuba_reference_spp}spp-multijitter.npy"
         if not m_ref_path.exists():
-            img, _ = mitsuba_render(args.mitsuba_reference_spp, 7, timed=False)
+            img, _ = mitsuba_render(args.mitsuba_reference_spp, 7, "multijitter", timed=False)
             np.save(m_ref_path, img)
         m_reference = np.load(m_ref_path)
         floor = relmse(m_reference, reference)
 
+        # Rows: scene, renderer, spp, seed, seconds, relMSE against veach's reference, against its own.
         for spp in budgets:
             for seed in range(1, args.seeds + 1):
-                img, seconds = veach_render(args.veach, scene, out_dir / f"{name}-veach.pfm", w, h, spp, seed, 1, 1)
-                rows.append((name, "veach", spp, seed, seconds, relmse(img, reference)))
-                img, seconds = mitsuba_render(spp, seed)
-                rows.append((name, "mitsuba", spp, seed, seconds, relmse(img, reference)))
-                print(f"{name} spp {spp} seed {seed}: veach {rows[-2][4]:.3f} s relMSE {rows[-2][5]:.3e}, "
-                      f"mitsuba {rows[-1][4]:.3f} s relMSE {rows[-1][5]:.3e}", file=sys.stderr)
+                img, seconds = veach_render(args.veach, scene, out_dir / f"{name}-veach.pfm", w, h, spp, seed, 1, 1,
+                                            sampler=args.veach_sampler)
+                e = relmse(img, reference)
+                rows.append((name, "veach", spp, seed, seconds, e, e))
+                line = f"{name} spp {spp} seed {seed}: veach {seconds:.3f} s relMSE {e:.3e}"
+                for sampler in samplers:
+                    img, seconds = mitsuba_render(spp, seed, sampler)
+                    rows.append((name, f"mitsuba-{sampler}", spp, seed, seconds, relmse(img, reference),
+                                 relmse(img, m_reference)))
+                    line += f", mitsuba {sampler} {seconds:.3f} s relMSE {rows[-1][5]:.3e}"
+                print(line, file=sys.stderr)
 
-        def median_efficiency(renderer, spp):
+        def medians(renderer, spp):
             pts = [r for r in rows if r[0] == name and r[1] == renderer and r[2] == spp]
-            return (statistics.median(1.0 / (r[4] * r[5]) for r in pts), statistics.median(r[4] for r in pts),
-                    statistics.median(r[5] for r in pts))
+            med = statistics.median
+            return (med(r[4] for r in pts), med(r[5] for r in pts), med(1.0 / (r[4] * r[5]) for r in pts),
+                    med(r[6] for r in pts), med(1.0 / (r[4] * r[6]) for r in pts))
 
-        for spp in budgets:
-            ve, vt, vr = median_efficiency("veach", spp)
-            me, mt, mr = median_efficiency("mitsuba", spp)
-            summary.append((name, spp, vt, vr, ve, mt, mr, me, ve / me, floor))
+        for sampler in samplers:
+            for spp in budgets:
+                vt, vr, ve, _, _ = medians("veach", spp)
+                mt, mr, me, mr_own, me_own = medians(f"mitsuba-{sampler}", spp)
+                summary.append((sampler, name, spp, vt, vr, ve, mt, mr, me, ve / me, mr_own, ve / me_own, floor))
 
     with open(out_dir / "peer.csv", "w") as f:
-        f.write("scene,renderer,spp,seed,seconds,relmse\n")
+        f.write("scene,renderer,spp,seed,seconds,relmse,relmse_own_reference\n")
         for r in rows:
             f.write(",".join(str(v) for v in r) + "\n")
     # lavapipe's speed depends on the Mesa release (22.3 against 25: 1.4-3.3x), so say which ran.
-    print(f"veach on {veach_render.driver}; Mitsuba {mi.__version__} ({mi.variant()})\n")
-    print("| scene | spp | veach s | veach relMSE | veach eff. | Mitsuba s | Mitsuba relMSE | Mitsuba eff. "
-          "| veach / Mitsuba eff. | relMSE between references |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
-    for s in summary:
-        print(f"| {s[0]} | {s[1]} | {s[2]:.3f} | {s[3]:.3e} | {s[4]:.3g} | {s[5]:.3f} | {s[6]:.3e} | {s[7]:.3g} "
-              f"| {s[8]:.2f} | {s[9]:.2e} |")
+    print(f"veach ({args.veach_sampler} sampler) on {veach_render.driver}; Mitsuba {mi.__version__} ({mi.variant()})")
+    for sampler in samplers:
+        print(f"\nMitsuba with the `{sampler}` sampler:\n")
+        print("| scene | spp | veach s | veach relMSE | veach eff. | Mitsuba s | Mitsuba relMSE | Mitsuba eff. "
+              "| veach / Mitsuba eff. | Mitsuba relMSE, own ref. | veach / Mitsuba eff., own refs "
+              "| relMSE between references |")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|")
+        for s in summary:
+            if s[0] != sampler:
+                continue
+            print(f"| {s[1]} | {s[2]} | {s[3]:.3f} | {s[4]:.3e} | {s[5]:.3g} | {s[6]:.3f} | {s[7]:.3e} | {s[8]:.3g} "
+                  f"| {s[9]:.2f} | {s[10]:.3e} | {s[11]:.2f} | {s[12]:.2e} |")
 
 
 if __name__ == "__main__":

@@ -23,15 +23,21 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 /// Writes `dir/scene.xml` and `dir/mesh-K.ply`; the XML takes `spp`, `width`, `height`,
-/// `emitter_samples` and `bsdf_samples` as parameters ($name, Mitsuba's `mi.load_file(..., name=value)`).
+/// `emitter_samples`, `bsdf_samples` and `sampler` (a Mitsuba sampler plugin: `independent`,
+/// `multijitter`, ...) as parameters ($name, Mitsuba's `mi.load_file(..., name=value)`).
 pub fn export(scene: &Scene, camera: &Camera, dir: &Path) -> Result<()> {
     let io = |e: std::io::Error| Error::Options(format!("{}: {e}", dir.display()));
     std::fs::create_dir_all(dir).map_err(io)?;
     let mut xml = String::new();
     let _ = writeln!(xml, "<scene version=\"3.0.0\">");
-    for (name, value) in
-        [("spp", "64"), ("width", "256"), ("height", "256"), ("emitter_samples", "1"), ("bsdf_samples", "1")]
-    {
+    for (name, value) in [
+        ("spp", "64"),
+        ("width", "256"),
+        ("height", "256"),
+        ("emitter_samples", "1"),
+        ("bsdf_samples", "1"),
+        ("sampler", "independent"),
+    ] {
         let _ = writeln!(xml, "    <default name=\"{name}\" value=\"{value}\"/>");
     }
     let _ = writeln!(
@@ -44,7 +50,7 @@ pub fn export(scene: &Scene, camera: &Camera, dir: &Path) -> Result<()> {
         xml,
         "    <sensor type=\"perspective\">\n        <float name=\"fov\" value=\"{}\"/>\n        <string name=\"fov_axis\" value=\"y\"/>\n        \
          <transform name=\"to_world\">\n            <lookat origin=\"{}\" target=\"{}\" up=\"{}\"/>\n        </transform>\n        \
-         <sampler type=\"independent\">\n            <integer name=\"sample_count\" value=\"$spp\"/>\n        </sampler>\n        \
+         <sampler type=\"$sampler\">\n            <integer name=\"sample_count\" value=\"$spp\"/>\n        </sampler>\n        \
          <film type=\"hdrfilm\">\n            <integer name=\"width\" value=\"$width\"/>\n            <integer name=\"height\" value=\"$height\"/>\n            \
          <string name=\"pixel_format\" value=\"rgb\"/>\n            <rfilter type=\"box\"/>\n        </film>\n    </sensor>",
         camera.yfov.to_degrees(),
