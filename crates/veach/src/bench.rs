@@ -131,7 +131,8 @@ pub struct Reference {
     pub pixels: Vec<[f32; 3]>,
     /// How it was made: a file, or "MIS at N spp".
     pub source: String,
-    /// The reference's own expected relMSE, from its per-pixel variance (0 for a given file).
+    /// The reference's own expected relMSE, from the spread between its replicates (0 for a
+    /// given file).
     pub own_relmse: f64,
 }
 
@@ -153,11 +154,17 @@ pub fn reference_settings(width: u32, height: u32, spp: u32) -> RenderSettings {
     }
 }
 
-/// Renders the reference: MIS with the balance heuristic, every light sampled, 4 + 4 samples
-/// per camera sample.
 /// The rendered reference samples every light up to this many lights.
 pub const MAX_LIGHTS_SAMPLED_EACH: u32 = 32;
 
+/// The rendered reference is the mean of this many renders with independent scrambles (seeds).
+/// A Sobol render's per-pixel sample variance does not measure its error (it over-estimates it
+/// wherever stratification helps), so the reference's own error is estimated the way randomised
+/// QMC's is, from the spread between replicates (Owen 1997; L'Ecuyer & Lemieux 2002).
+pub const REFERENCE_REPLICATES: u32 = 4;
+
+/// Renders the reference: MIS with the balance heuristic, every light sampled, 4 + 4 samples
+/// per camera sample, `spp` in all over REFERENCE_REPLICATES scrambles.
 pub fn render_reference(
     renderer: &Renderer,
     scene: &GpuScene,
@@ -175,12 +182,19 @@ pub fn render_reference(
         settings.light_selection = LightSelection::Power;
         settings.light_samples = 16;
     }
-    let out = renderer.render(scene, &settings, camera, &mut |p| progress(p.fraction))?;
-    if out.interrupted {
-        return Err(Error::Options("the reference render was interrupted".into()));
+    settings.spp = spp.div_ceil(REFERENCE_REPLICATES).max(1);
+    let mut replicates = Vec::new();
+    for r in 0..REFERENCE_REPLICATES {
+        settings.seed = reference_settings(width, height, spp).seed + r;
+        let done = r as f64 / REFERENCE_REPLICATES as f64;
+        let out = renderer
+            .render(scene, &settings, camera, &mut |p| progress(done + p.fraction / REFERENCE_REPLICATES as f64))?;
+        if out.interrupted {
+            return Err(Error::Options("the reference render was interrupted".into()));
+        }
+        replicates.push(out.mean());
     }
-    let pixels = out.mean();
-    let own_relmse = expected_relmse(&out, &pixels);
+    let (pixels, own_relmse) = replicate_mean(&replicates);
     let source = if by_power {
         format!("MIS 16+4, lights by power, {spp} spp")
     } else {
@@ -189,16 +203,23 @@ pub fn render_reference(
     Ok(Reference { pixels, source, own_relmse })
 }
 
-/// E[relMSE] of a render against the truth, estimated from its per-pixel variance of the mean.
-pub fn expected_relmse(out: &RenderOutput, mean: &[[f32; 3]]) -> f64 {
-    let var = out.variance_of_mean();
+/// The mean of R ≥ 2 independently randomised images, and its expected relMSE against the
+/// truth: per pixel and channel, the variance between the images over R (the variance of their
+/// mean), relative as in `error_metrics`.
+pub fn replicate_mean(images: &[Vec<[f32; 3]>]) -> (Vec<[f32; 3]>, f64) {
+    let r = images.len() as f64;
+    let len = images.first().map_or(0, |i| i.len());
+    let mut mean = vec![[0.0f32; 3]; len];
     let mut sum = 0.0;
-    for (v, m) in var.iter().zip(mean) {
+    for (p, m) in mean.iter_mut().enumerate() {
         for c in 0..3 {
-            sum += v[c] as f64 / ((m[c] as f64).powi(2) + RELMSE_EPSILON);
+            let mu = images.iter().map(|i| i[p][c] as f64).sum::<f64>() / r;
+            let var = images.iter().map(|i| (i[p][c] as f64 - mu).powi(2)).sum::<f64>() / (r - 1.0).max(1.0);
+            m[c] = mu as f32;
+            sum += var / r / (mu * mu + RELMSE_EPSILON);
         }
     }
-    sum / (mean.len() * 3).max(1) as f64
+    (mean, sum / (len * 3).max(1) as f64)
 }
 
 #[derive(Clone, Debug)]
@@ -411,6 +432,18 @@ mod tests {
         let rel: f64 = d2.iter().zip(r2).map(|(d, r)| d / (r + RELMSE_EPSILON)).sum::<f64>() / 6.0;
         assert!((m.relmse - rel).abs() < 1e-7);
         assert!((m.mae - (0.5 + 0.1 + 0.5) / 6.0).abs() < 1e-7);
+    }
+
+    #[test]
+    fn replicate_mean_estimates_the_variance_of_the_mean() {
+        // Two replicates: per channel mean (a + b) / 2, variance between them (a − b)² / 2,
+        // variance of the mean that over 2.
+        let a = vec![[1.0, 0.0, 2.0]];
+        let b = vec![[3.0, 0.0, 2.0]];
+        let (mean, relmse) = replicate_mean(&[a, b]);
+        assert_eq!(mean, vec![[2.0, 0.0, 2.0]]);
+        let expected = (2.0 / 2.0) / (4.0 + RELMSE_EPSILON) / 3.0;
+        assert!((relmse - expected).abs() < 1e-12, "{relmse} vs {expected}");
     }
 
     #[test]
