@@ -5,8 +5,9 @@
 
 For each scene: `veach export-mitsuba` writes the same triangles, normals, radiance and camera
 as Mitsuba XML/PLY; a reference is rendered by veach (MIS 4+4, every light, --reference-spp);
-then veach (MIS, 1 light + 1 BRDF sample per camera sample, one light chosen by power) and
-Mitsuba 3 (`llvm_ad_rgb`, integrator `direct` with emitter_samples = bsdf_samples = 1) render
+then veach (MIS, 1 light + 1 BRDF sample per camera sample, one light chosen by power, the power
+heuristic) and Mitsuba 3 (`llvm_ad_rgb`, integrator `direct` with emitter_samples = bsdf_samples
+= 1, whose MIS weights are the power heuristic with the sample counts: the same estimator) render
 at 1, 2, 4 ... --max-spp samples per pixel over --seeds seeds. Emitters seen directly are left
 out of every image (both renderers' hide_emitters), so errors measure reflected light, as
 `veach bench` does. Times are render times: veach's from its --stats (kernel creation and
@@ -71,11 +72,11 @@ def run(cmd):
 
 
 def veach_render(veach, scene, out, width, height, spp, seed, light, brdf, strategy="mis", selection="power",
-                 sampler="sobol"):
+                 sampler="sobol", heuristic="power"):
     stats = out.with_suffix(".json")
     run([veach, "render", scene, "-o", out, "--width", str(width), "--height", str(height), "--spp", str(spp),
          "--seed", str(seed), "--strategy", strategy, "--light-samples", str(light), "--brdf-samples", str(brdf),
-         "--light-selection", selection, "--sampler", sampler, "--hide-emitters", "--stats", stats, "--quiet"])
+         "--light-selection", selection, "--sampler", sampler, "--heuristic", heuristic, "--hide-emitters", "--stats", stats, "--quiet"])
     s = json.loads(stats.read_text())
     veach_render.driver = f"{s['adapter']}, {s.get('driver', 'driver unknown')}"
     return read_pfm(out), s["timings_seconds"]["render"]
@@ -100,6 +101,9 @@ def main():
     import drjit as dr
     import mitsuba as mi
     mi.set_variant("llvm_ad_rgb")
+    # Mitsuba logs to stdout; its warnings (e.g. multijitter rounding the sample count up) would
+    # land in the Markdown tables.
+    mi.set_log_level(mi.LogLevel.Error)
     samplers = [x.strip() for x in args.mitsuba_samplers.split(",") if x.strip()]
 
     out_dir = Path(args.output)
@@ -115,7 +119,8 @@ def main():
 
         ref_path = out_dir / f"{name}-reference-{w}x{h}-{args.reference_spp}spp.pfm"
         if not ref_path.exists():
-            veach_render(args.veach, scene, ref_path, w, h, args.reference_spp, 0x5eed, 4, 4, selection="each")
+            veach_render(args.veach, scene, ref_path, w, h, args.reference_spp, 0x5eed, 4, 4, selection="each",
+                         heuristic="balance")
         reference = read_pfm(ref_path)
 
         def mitsuba_render(spp, seed, sampler, timed=True):
