@@ -418,7 +418,13 @@ impl ViewerApp {
         ui.label("view");
         let mut view = c.view;
         for v in View::ALL {
-            ui.radio_value(&mut view, v, v.label());
+            let radio = ui.radio_value(&mut view, v, v.label());
+            if v == View::Variance {
+                radio.on_hover_text(
+                    "each pixel's standard error from its sample variance: the error of its mean with \
+                     independent samples; with Sobol samples an over-estimate wherever stratification helps",
+                );
+            }
         }
         let exposure_or_view_changed = view != c.view;
         c.view = view;

@@ -47,6 +47,8 @@ pub struct SettingsReport {
     pub brdf_samples: u32,
     pub heuristic: String,
     pub light_selection: String,
+    pub light_sampling: String,
+    pub sampler: String,
     pub seed: u32,
     pub camera: String,
 }
@@ -114,6 +116,8 @@ pub fn render_stats(
             brdf_samples: settings.brdf_samples,
             heuristic: format!("{:?}", settings.heuristic).to_lowercase(),
             light_selection: format!("{:?}", settings.light_selection).to_lowercase(),
+            light_sampling: settings.light_sampling.name().into(),
+            sampler: settings.sampler.name().into(),
             seed: settings.seed,
             camera: camera_name.into(),
         },
