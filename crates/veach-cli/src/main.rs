@@ -353,7 +353,8 @@ struct BenchArgs {
     reference_spp: Option<u32>,
     /// Strategies to compare, comma-separated [default: uniform,brdf,light,mis-balance,mis-power,
     /// mis-lobes]; add -solid-angle to a light-sampling one for solid-angle sampling of
-    /// emitter triangles (e.g. light-solid-angle)
+    /// emitter triangles (e.g. light-solid-angle), then -independent for independent random
+    /// numbers instead of Sobol points (e.g. mis-power-independent, light-solid-angle-independent)
     #[arg(long, value_name = "NAMES")]
     strategies: Option<String>,
     /// Seconds of the equal-time comparison [default: mis-balance's time at the largest budget]
