@@ -25,6 +25,8 @@ bugs=(
   "shaders/mis.wgsl|    let f = n_f * pdf_f;\n    let g = n_g * pdf_g;\n    if f <= 0.0 {\n        return 0.0;\n    }\n    return 1.0 / (1.0 + g / f);|    let f = pdf_f;\n    let g = pdf_g;\n    if f <= 0.0 {\n        return 0.0;\n    }\n    return 1.0 / (1.0 + g / f);|sampling|mis_weights|balance heuristic without the sample counts"
   "shaders/lights.wgsl|return alias_pick(b, bucket.alias_prob, b.index, bucket.alias_index);|return alias_pick(b, bucket.alias_prob, bucket.alias_index, b.index);|sampling|light_selection|light alias table: bucket and alias swapped"
   "shaders/lights.wgsl|return alias_pick(b, bucket.alias_prob, ti, bucket.alias_index);|return DiscretePick(ti, b.frac);|sampling|area_light|emitter triangle chosen uniformly, not by area"
+  "shaders/lights.wgsl|return DiscretePick(other, remap_above(b.frac, keep));|return DiscretePick(other, b.frac);|sampling|area_light|sample reuse: an alias outcome's number not rescaled"
+  "shaders/integrator.wgsl|            u.x = pick.u;\n||strategies|veach_mis|light choice's number reused unrescaled for the point"
   "shaders/sampling.wgsl|return min(u / p, ONE_MINUS_EPSILON);|return min(u, ONE_MINUS_EPSILON);|sampling|area_light|sample reuse: the chosen outcome's number not rescaled"
   "shaders/bsdf.wgsl|sample_cosine_hemisphere(vec2f(remap_above(u.x, p_spec), u.y))|sample_cosine_hemisphere(u)|sampling|gltf_brdf|diffuse lobe sampled with the lobe choice's number"
   "shaders/sampler.wgsl|y ^= (y >> 4u) & 0x0f0f0f0fu;|y ^= (y >> 4u) & 0x0f0f0f0eu;|sampling|sobol_points|Sobol's second dimension: a wrong direction number"
