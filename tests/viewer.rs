@@ -163,10 +163,12 @@ fn error_curve_falls_as_samples_accumulate_and_saves_as_csv() {
     assert!((last.relmse - now).abs() <= 1e-9 * now.max(1.0), "curve {} vs image {now}", last.relmse);
     // The error falls as samples accumulate, but not smoothly as 1/spp: at 48×48 one pixel on
     // the floor by the boxes carries 40-90% of relMSE (rare bright samples where the reference
-    // is nearly black, ε = 0.01). Measured for this seed against the reference, relMSE at
-    // 1, 2, 3, 4, 8, 16, 32, 64, 128 spp: 0.036 0.015 0.19 0.11 0.028 0.059 0.035 0.013 0.014;
-    // at every count from 1 to 160 spp it is at least 0.0092, at 256 spp 0.0072. So whichever
-    // frame gives the first point (timing decides), if it is at most 160 spp the last is below it.
+    // is nearly black, ε = 0.01). Measured for this seed against the reference (Sobol samples,
+    // the default; `veach render --width 48 --height 48` at every count, same settings), relMSE
+    // at 1, 2, 3, 4, 8, 16, 32, 64, 128 spp: 0.025 0.0097 0.0076 0.0053 0.087 0.024 0.0089 0.0017
+    // 0.00030; at every count from 1 to 160 spp it is at least 2.3e-4, at 256 spp 8.1e-5. So
+    // whichever frame gives the first point (timing decides), if it is at most 160 spp the last
+    // is below it.
     assert!(first.spp <= 160.0, "first point at {} spp: too late to see the error fall", first.spp);
     assert!(
         last.relmse < first.relmse,
