@@ -30,7 +30,7 @@ bugs=(
   "shaders/sampling.wgsl|return min(u / p, ONE_MINUS_EPSILON);|return min(u, ONE_MINUS_EPSILON);|sampling|area_light|sample reuse: the chosen outcome's number not rescaled"
   "shaders/bsdf.wgsl|sample_cosine_hemisphere(vec2f(remap_above(u.x, p_spec), u.y))|sample_cosine_hemisphere(u)|sampling|gltf_brdf|diffuse lobe sampled with the lobe choice's number"
   "shaders/sampler.wgsl|y ^= (y >> 4u) & 0x0f0f0f0fu;|y ^= (y >> 4u) & 0x0f0f0f0eu;|sampling|sobol_points|Sobol's second dimension: a wrong direction number"
-  "shaders/sampler.wgsl|return nested_uniform_scramble((*stream).index, s);|return (*stream).index;|sampling|sampler_requests|requests not shuffled: a scrambled diagonal"
+  "shaders/sampler.wgsl|return nested_uniform_scramble(index, s);|return index;|sampling|sampler_requests|requests not shuffled: a scrambled diagonal"
   "shaders/textures.wgsl|let q = p - 0.5;|let q = p;|textures|lookups|bilinear texel centres off by half a texel"
   "shaders/textures.wgsl|return vec2f(dot(r.row0, h), dot(r.row1, h));|return vec2f(dot(r.row1, h), dot(r.row0, h));|textures|floor_pixels|KHR_texture_transform rows swapped"
   "shaders/textures.wgsl|return select(v, vec4f(srgb_to_linear(v.rgb), v.a), srgb);|return v;|textures|lookups|sRGB textures not decoded"

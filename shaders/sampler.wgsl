@@ -71,8 +71,8 @@ fn next_request_seed(stream: ptr<function, SampleStream>) -> u32 {
 // other, not sample k with sample k (the same index with only the values scrambled would put two
 // requests' x coordinates on a scrambled diagonal). An aligned block of 2^m indices maps to another,
 // and any such block of a Sobol sequence is a net, so stratification survives the shuffle.
-fn shuffled_index(stream: ptr<function, SampleStream>, s: u32) -> u32 {
-    return nested_uniform_scramble((*stream).index, s);
+fn shuffled_index(index: u32, s: u32) -> u32 {
+    return nested_uniform_scramble(index, s);
 }
 
 // Two dimensions: Sobol's first two, a (0,2)-sequence, each Owen-scrambled with its own seed. With
@@ -84,7 +84,7 @@ fn sample_2d(stream: ptr<function, SampleStream>) -> vec2f {
         var state = pcg_hash(s ^ pcg_hash((*stream).index));
         return rng_next2(&state);
     }
-    let i = shuffled_index(stream, s);
+    let i = shuffled_index((*stream).index, s);
     let x = nested_uniform_scramble(reverseBits(i), pcg_hash(s ^ 0x68bc21ebu));
     let y = nested_uniform_scramble(sobol_second_dimension(i), pcg_hash(s ^ 0x02e5be93u));
     return vec2f(unit_float(x), unit_float(y));

@@ -260,7 +260,6 @@ fn sobol_renders_match_the_closed_form_with_less_error_than_independent_samples(
                 let s = RenderSettings {
                     sampler,
                     seed: 1000 + r,
-                    heuristic: Heuristic::Power,
                     ..settings(strategy, SPP, light, brdf, selection, Heuristic::Power)
                 };
                 let out = render(&gpu_scene, &s, &camera);

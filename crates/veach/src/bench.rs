@@ -183,9 +183,10 @@ pub fn render_reference(
         settings.light_samples = 16;
     }
     settings.spp = spp.div_ceil(REFERENCE_REPLICATES).max(1);
+    let first_seed = settings.seed;
     let mut replicates = Vec::new();
     for r in 0..REFERENCE_REPLICATES {
-        settings.seed = reference_settings(width, height, spp).seed + r;
+        settings.seed = first_seed + r;
         let done = r as f64 / REFERENCE_REPLICATES as f64;
         let out = renderer
             .render(scene, &settings, camera, &mut |p| progress(done + p.fraction / REFERENCE_REPLICATES as f64))?;
