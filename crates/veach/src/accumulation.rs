@@ -135,7 +135,11 @@ impl Accumulation {
         });
 
         let outputs = [&accum, &accum_sq, &counters, &aov_light, &aov_brdf];
-        let key = KernelKey::for_render(&scene.features, settings, gpu.auto_execution());
+        let mut key = KernelKey::for_render(&scene.features, settings, gpu.auto_execution());
+        if settings.specialise {
+            // The scene's BVH buffer is also a uniform buffer where that pays (`upload_scene`).
+            key.uniform_bvh_nodes = scene.uniform_bvh_nodes;
+        }
         // The deferred samples of one dispatch: a band of rows, each pixel once, within the
         // binding size and the direction kernel's one-dimensional indirect dispatch.
         let deferred_capacity = pixels

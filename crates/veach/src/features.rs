@@ -110,6 +110,9 @@ pub struct KernelKey {
     pub texture_kinds: [bool; 4],
     /// The wavefront kernels (shaders/wavefront.wgsl) instead of `render`.
     pub wavefront: bool,
+    /// 0: `bvh_nodes` is a storage buffer; N > 0: a uniform buffer of N nodes (`GpuScene`
+    /// decides, for small BVHs on CPU adapters).
+    pub uniform_bvh_nodes: u32,
 }
 
 impl KernelKey {
@@ -125,6 +128,7 @@ impl KernelKey {
             textures: true,
             texture_kinds: [true; 4],
             wavefront: false,
+            uniform_bvh_nodes: 0,
         }
     }
 
@@ -156,6 +160,7 @@ impl KernelKey {
                 features.normal_texture,
             ],
             wavefront: uses_wavefront(features, settings, auto),
+            uniform_bvh_nodes: 0,
         }
     }
 

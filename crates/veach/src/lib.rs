@@ -25,7 +25,7 @@ pub use accumulation::Accumulation;
 pub use error::{Error, Result};
 pub use gpu::context::GpuContext;
 pub use render::{
-    Execution, GpuScene, Heuristic, LightSampling, LightSelection, RenderOutput, RenderSettings, Renderer, Sampler,
-    Strategy,
+    BvhMemory, Execution, GpuScene, Heuristic, LightSampling, LightSelection, RenderOutput, RenderSettings, Renderer,
+    Sampler, Strategy,
 };
 pub use scene::{Scene, load_gltf};

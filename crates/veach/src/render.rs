@@ -3,7 +3,7 @@
 //! long render shows progress, can be stopped, and never holds the GPU for seconds.
 
 use crate::accumulation::Accumulation;
-use crate::bvh::build_bvh;
+use crate::bvh::{build_bvh, build_bvh_fitting};
 use crate::error::{Error, Result};
 use crate::features::{KernelKey, SceneFeatures};
 use crate::gpu::bindings;
@@ -325,6 +325,9 @@ pub struct SceneUploadStats {
 /// settings and camera.
 pub struct GpuScene {
     pub(crate) buffers: Vec<wgpu::Buffer>,
+    /// Nodes the BVH buffer holds as a uniform buffer too (padded to this), 0 where it is a
+    /// storage buffer only (see `BvhMemory`).
+    pub(crate) uniform_bvh_nodes: u32,
     /// vertex_uvs, texture_infos, texels, emitter_source: only for scenes with textures.
     pub(crate) texture_buffers: Option<[wgpu::Buffer; 4]>,
     pub(crate) light_count: u32,
@@ -355,15 +358,43 @@ pub struct Renderer {
 }
 
 fn storage_buffer<T: bytemuck::Pod + Default>(device: &wgpu::Device, label: &str, data: &[T]) -> wgpu::Buffer {
+    scene_buffer(device, label, data, wgpu::BufferUsages::empty())
+}
+
+/// A storage buffer that may also be bound as `also`.
+fn scene_buffer<T: bytemuck::Pod + Default>(
+    device: &wgpu::Device,
+    label: &str,
+    data: &[T],
+    also: wgpu::BufferUsages,
+) -> wgpu::Buffer {
     // Bindings may not be empty: an empty array is uploaded as one zeroed element.
     let fallback = [T::default()];
     let contents: &[T] = if data.is_empty() { &fallback } else { data };
     device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some(label),
         contents: bytemuck::cast_slice(contents),
-        usage: wgpu::BufferUsages::STORAGE,
+        usage: wgpu::BufferUsages::STORAGE | also,
     })
 }
+
+/// Where the kernels read the BVH from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BvhMemory {
+    /// A uniform buffer where the BVH fits in one (with larger leaves if that makes it fit) and
+    /// the adapter is a CPU (lavapipe); a storage buffer otherwise. lavapipe gathers a uniform
+    /// array's elements with vector loads where it loads a storage buffer's lane by lane: the
+    /// Cornell box renders in 0.86x the time, the Veach scene in 0.84-0.90x (docs/performance.md,
+    /// "Small BVHs in a uniform buffer"). GPUs keep storage: their constant caches serialise
+    /// loads from different addresses within a warp (CUDA C++ Programming Guide, "Constant
+    /// Memory"), which is what a traversal does; not measured here.
+    Auto,
+    /// A storage buffer, whatever its size (`veach scale`, so that its sizes compare like for like).
+    Storage,
+}
+
+/// The largest uniform BVH: 64 KiB, the common `maxUniformBufferRange` (2048 nodes).
+const UNIFORM_BVH_MAX_BYTES: u64 = 64 << 10;
 
 impl Renderer {
     /// A renderer on `gpu`. Kernels are compiled when a render first needs them.
@@ -379,11 +410,16 @@ impl Renderer {
         }
         let entry_points: &[&str] =
             if key.wavefront { &shaders::WAVEFRONT_ENTRY_POINTS } else { &[shaders::RENDER_ENTRY_POINT] };
-        let extra = bindings::ExtraBindings { textures: key.textures, deferred: key.wavefront, test_io: false };
+        let extra = bindings::ExtraBindings {
+            uniform_bvh: key.uniform_bvh_nodes > 0,
+            textures: key.textures,
+            deferred: key.wavefront,
+            test_io: false,
+        };
         let (pipelines, layout) = bindings::create_pipelines(
             &self.gpu.device,
             "veach render kernel",
-            shaders::render_kernel_source(key.textures),
+            shaders::render_kernel_source(key.textures, key.uniform_bvh_nodes),
             entry_points,
             extra,
             &key.constants(),
@@ -402,9 +438,30 @@ impl Renderer {
         self.kernels.lock().expect("kernel cache").len()
     }
 
-    /// Builds the BVH and uploads the scene.
+    /// Builds the BVH and uploads the scene, the BVH in a uniform buffer where it fits and that
+    /// pays (`BvhMemory::Auto`).
     pub fn upload_scene(&self, scene: &Scene) -> Result<GpuScene> {
-        let bvh = build_bvh(&scene.triangles);
+        self.upload_scene_with(scene, BvhMemory::Auto)
+    }
+
+    /// Nodes a uniform buffer of the BVH may hold on this adapter, 0 where the BVH stays in storage.
+    fn uniform_bvh_capacity(&self, memory: BvhMemory) -> usize {
+        let cpu = self.gpu.adapter_info.device_type == wgpu::DeviceType::Cpu;
+        if memory == BvhMemory::Storage || !cpu {
+            return 0;
+        }
+        let bytes = self.gpu.device.limits().max_uniform_buffer_binding_size.min(UNIFORM_BVH_MAX_BYTES);
+        bytes as usize / std::mem::size_of::<layout::BvhNode>()
+    }
+
+    /// `upload_scene`, with the BVH's memory chosen by the caller.
+    pub fn upload_scene_with(&self, scene: &Scene, memory: BvhMemory) -> Result<GpuScene> {
+        let capacity = self.uniform_bvh_capacity(memory);
+        let bvh =
+            if capacity > 0 { build_bvh_fitting(&scene.triangles, capacity) } else { build_bvh(&scene.triangles) };
+        // A power of two of at least 64 nodes, so that scenes of similar size share a kernel.
+        let uniform_bvh_nodes =
+            if bvh.nodes.len() <= capacity { bvh.nodes.len().next_power_of_two().max(64).min(capacity) } else { 0 };
         let mut stats = SceneUploadStats {
             bvh_build: bvh.build_time,
             bvh_nodes: bvh.nodes.len(),
@@ -413,7 +470,10 @@ impl Renderer {
         };
         let upload_start = Instant::now();
         let features = SceneFeatures::detect(scene);
-        let arrays: SceneArrays = build_scene_arrays(scene, &features, &bvh);
+        let mut arrays: SceneArrays = build_scene_arrays(scene, &features, &bvh);
+        if uniform_bvh_nodes > 0 {
+            arrays.bvh_nodes.resize(uniform_bvh_nodes, layout::BvhNode::default());
+        }
         let device = &self.gpu.device;
         let max_binding = device.limits().max_storage_buffer_binding_size;
         let too_big = [
@@ -431,8 +491,9 @@ impl Renderer {
                 max_binding >> 20
             )));
         }
+        let bvh_usage = if uniform_bvh_nodes > 0 { wgpu::BufferUsages::UNIFORM } else { wgpu::BufferUsages::empty() };
         let buffers = vec![
-            storage_buffer(device, "bvh_nodes", &arrays.bvh_nodes),
+            scene_buffer(device, "bvh_nodes", &arrays.bvh_nodes, bvh_usage),
             storage_buffer(device, "vertices", &arrays.vertices),
             storage_buffer(device, "triangles", &arrays.triangles),
             storage_buffer(device, "materials", &arrays.materials),
@@ -453,6 +514,7 @@ impl Renderer {
         stats.upload = upload_start.elapsed();
         Ok(GpuScene {
             buffers,
+            uniform_bvh_nodes: uniform_bvh_nodes as u32,
             texture_buffers,
             light_count: scene.lights.len() as u32,
             emitter_bound: arrays.emitter_bound,

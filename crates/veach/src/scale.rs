@@ -94,7 +94,9 @@ fn measure_point(
     let scene = crate::load_gltf(&path)?;
     let load_seconds = load_start.elapsed().as_secs_f64();
     let camera = scene.camera(None).map_err(|m| Error::scene(&path, m))?;
-    let gpu_scene = renderer.upload_scene(&scene)?;
+    // Every size in storage memory, so that the sweep compares traversals alike: the smallest
+    // would otherwise get the uniform BVH of lavapipe (`BvhMemory::Auto`).
+    let gpu_scene = renderer.upload_scene_with(&scene, crate::render::BvhMemory::Storage)?;
     let stats = &gpu_scene.stats;
     let mut rows = Vec::new();
     for (strategy, settings) in scale_strategies(config, sweep) {

@@ -30,7 +30,13 @@ pub const TEST_ENTRY_POINT: &str = "run_test";
 /// The render kernel's source (with textures) followed by the test kernels (see `gpu::test_kernel`).
 pub fn test_kernel_source() -> String {
     let (name, text) = TEST_KERNELS;
-    format!("{}// ---- shaders/{name} ----\n{text}\n", render_kernel_source(true))
+    format!("{}// ---- shaders/{name} ----\n{text}\n", render_kernel_source(true, 0))
+}
+
+/// `bvh_nodes` as layout.wgsl declares it, and as a uniform array of n nodes.
+const BVH_STORAGE_DECLARATION: &str = "var<storage, read> bvh_nodes: array<BvhNode>;";
+fn bvh_uniform_declaration(n: u32) -> String {
+    format!("var<uniform> bvh_nodes: array<BvhNode, {n}>;")
 }
 
 /// Name of the compute entry point in `integrator.wgsl`.
@@ -39,8 +45,9 @@ pub const RENDER_ENTRY_POINT: &str = "render";
 pub const WAVEFRONT_ENTRY_POINTS: [&str; 3] = ["render_light_pass", "prepare_direction_pass", "render_direction_pass"];
 
 /// The whole kernel source. Each file is preceded by a marker comment so that a line number in
-/// a WGSL error can be traced back to its file.
-pub fn render_kernel_source(textures: bool) -> String {
+/// a WGSL error can be traced back to its file. With `uniform_bvh_nodes` > 0 the BVH is read from
+/// a uniform array of that many nodes instead of a storage buffer (`KernelKey`).
+pub fn render_kernel_source(textures: bool, uniform_bvh_nodes: u32) -> String {
     let mut source = String::new();
     for &file in SHADER_FILES {
         let (name, text) = match file {
@@ -51,6 +58,10 @@ pub fn render_kernel_source(textures: bool) -> String {
         source.push_str(&format!("// ---- shaders/{name} ----\n"));
         source.push_str(text);
         source.push('\n');
+    }
+    if uniform_bvh_nodes > 0 {
+        assert!(source.contains(BVH_STORAGE_DECLARATION), "layout.wgsl declares bvh_nodes otherwise");
+        source = source.replace(BVH_STORAGE_DECLARATION, &bvh_uniform_declaration(uniform_bvh_nodes));
     }
     source
 }
@@ -70,8 +81,8 @@ mod tests {
 
     #[test]
     fn all_wgsl_validates_with_naga() {
-        for textures in [false, true] {
-            let source = render_kernel_source(textures);
+        for (textures, uniform_bvh_nodes) in [(false, 0), (true, 0), (false, 2048)] {
+            let source = render_kernel_source(textures, uniform_bvh_nodes);
             let module = validate_wgsl(&source).unwrap_or_else(|e| panic!("WGSL invalid (textures {textures}):\n{e}"));
             assert!(
                 module

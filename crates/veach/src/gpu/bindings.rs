@@ -3,7 +3,8 @@
 
 /// Binding of `frame` (FrameParams, read-only storage: see layout.wgsl for why not uniform).
 pub const FRAME: u32 = 0;
-/// Bindings 1..=7: the scene (bvh_nodes … light_picks), read-only storage.
+/// Bindings 1..=7: the scene (bvh_nodes … light_picks), read-only storage (bvh_nodes may be a
+/// uniform buffer instead: `ExtraBindings::uniform_bvh`).
 pub const SCENE_FIRST: u32 = 1;
 pub const SCENE_COUNT: u32 = 7;
 /// Bindings 8..=12: accum, accum_sq, counters, aov_light, aov_brdf (read-write storage).
@@ -38,9 +39,12 @@ fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     entry(binding, wgpu::BufferBindingType::Storage { read_only })
 }
 
-/// Which optional bindings a kernel's layout has besides the frame, scene and outputs.
+/// Which optional bindings a kernel's layout has besides the frame, scene and outputs, and
+/// whether the BVH is a uniform buffer.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct ExtraBindings {
+    /// `bvh_nodes` (binding 1) is a uniform buffer (`KernelKey::uniform_bvh_nodes`).
+    pub uniform_bvh: bool,
     /// The texture module's bindings (13..=16).
     pub textures: bool,
     /// The wavefront kernels' deferred samples (17..=19).
@@ -51,9 +55,14 @@ pub struct ExtraBindings {
 
 /// Layout entries of a render or test kernel.
 pub fn layout_entries(extra: ExtraBindings) -> Vec<wgpu::BindGroupLayoutEntry> {
-    let ExtraBindings { textures: with_textures, deferred: with_deferred, test_io: with_test_io } = extra;
+    let ExtraBindings { uniform_bvh, textures: with_textures, deferred: with_deferred, test_io: with_test_io } = extra;
     let mut entries = vec![storage(FRAME, true)];
-    entries.extend((SCENE_FIRST..SCENE_FIRST + SCENE_COUNT).map(|b| storage(b, true)));
+    entries.push(if uniform_bvh {
+        entry(SCENE_FIRST, wgpu::BufferBindingType::Uniform)
+    } else {
+        storage(SCENE_FIRST, true)
+    });
+    entries.extend((SCENE_FIRST + 1..SCENE_FIRST + SCENE_COUNT).map(|b| storage(b, true)));
     entries.extend((OUTPUT_FIRST..OUTPUT_FIRST + OUTPUT_COUNT).map(|b| storage(b, false)));
     if with_textures {
         entries.extend((TEXTURES_FIRST..TEXTURES_FIRST + TEXTURES_COUNT).map(|b| storage(b, true)));
