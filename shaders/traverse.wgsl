@@ -6,7 +6,7 @@ const RAY_INF: f32 = 3.0e38;
 
 // The traversal stack, shared by both traversals (a ray's traversal ends before the next begins).
 // At module scope it is zeroed once per invocation, as WGSL requires of every variable; declared
-// in trace_closest and trace_occluded it was zeroed at every call, 64 stores per ray, which Mesa
+// in trace_closest and trace_occluded it was zeroed at every call, 64 stores per traversal, which Mesa
 // 22.3's lavapipe does not optimise away: 0.75-0.84x the render time there (docs/performance.md,
 // "The traversal stack at module scope").
 var<private> bvh_stack: array<u32, BVH_STACK_SIZE>;
@@ -134,11 +134,11 @@ const NO_NODE: u32 = 0xffffffffu;
 // One step from inner node `node`, given the ray's entry distances to its children (RAY_INF where
 // it misses one): the nearer child it enters, with the farther pushed on the stack; the one it
 // enters; or, entering neither, the node on top of the stack, or NO_NODE when that is empty.
-fn next_node(node: BvhNode, tl: f32, tr: f32, stack: ptr<private, array<u32, BVH_STACK_SIZE>>, sp: ptr<function, u32>) -> u32 {
+fn next_node(node: BvhNode, tl: f32, tr: f32, sp: ptr<function, u32>) -> u32 {
     if tl != RAY_INF && tr != RAY_INF {
         let near_is_left = tl <= tr;
         if *sp < BVH_STACK_SIZE {
-            (*stack)[*sp] = select(node.first, node.first + 1u, near_is_left);
+            bvh_stack[*sp] = select(node.first, node.first + 1u, near_is_left);
             *sp += 1u;
         }
         return select(node.first + 1u, node.first, near_is_left);
@@ -153,7 +153,7 @@ fn next_node(node: BvhNode, tl: f32, tr: f32, stack: ptr<private, array<u32, BVH
         return NO_NODE;
     }
     *sp -= 1u;
-    return (*stack)[*sp];
+    return bvh_stack[*sp];
 }
 
 // Both traversals below are "while-while" loops (Aila & Laine, "Understanding the Efficiency of
@@ -181,7 +181,7 @@ fn trace_closest(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
             let right = bvh_nodes[node.first + 1u];
             let tl = intersect_aabb(origin, inv_dir, left.min, left.max, hit.t);
             let tr = intersect_aabb(origin, inv_dir, right.min, right.max, hit.t);
-            node_index = next_node(node, tl, tr, &bvh_stack, &sp);
+            node_index = next_node(node, tl, tr, &sp);
             if node_index == NO_NODE {
                 at_leaf = false;
                 break;
@@ -222,7 +222,7 @@ fn trace_occluded(origin: vec3f, dir: vec3f, t_max: f32) -> bool {
         while node.count == 0u {
             let tl = intersect_aabb(origin, inv_dir, bvh_nodes[node.first].min, bvh_nodes[node.first].max, t_max);
             let tr = intersect_aabb(origin, inv_dir, bvh_nodes[node.first + 1u].min, bvh_nodes[node.first + 1u].max, t_max);
-            node_index = next_node(node, tl, tr, &bvh_stack, &sp);
+            node_index = next_node(node, tl, tr, &sp);
             if node_index == NO_NODE {
                 at_leaf = false;
                 break;
