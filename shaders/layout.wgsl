@@ -76,13 +76,19 @@ struct FrameParams {
     _pad6: u32,
 }
 
-// BVH2 node, 32 bytes. Inner node (count == 0): children at nodes[first] and nodes[first + 1].
-// Leaf (count > 0): triangles [first, first + count) of the BVH-ordered `triangles`.
+// An inner node of the BVH2, 64 bytes (crates/veach/src/gpu/bvh_nodes.rs): its two children's
+// boxes, and references to them: an inner node's index, or a leaf (LEAF_BIT, in traverse.wgsl)
+// with its triangle count in bits 27-30 and its first triangle of the BVH-ordered `triangles` in
+// bits 0-26. Node 0 is the root.
 struct BvhNode {
-    min: vec3f,
-    first: u32,
-    max: vec3f,
-    count: u32,
+    left_min: vec3f,
+    left: u32,
+    left_max: vec3f,
+    right: u32,
+    right_min: vec3f,
+    _pad0: u32,
+    right_max: vec3f,
+    _pad1: u32,
 }
 
 // A vertex in world space, shared by the triangles that index it: its position and its shading

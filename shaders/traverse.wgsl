@@ -129,25 +129,36 @@ fn safe_inverse(d: vec3f) -> vec3f {
     return 1.0 / dd;
 }
 
+// A traversal's position: an inner node's index, or a leaf's reference (LEAF_BIT set; see
+// BvhNode), or NO_NODE (LEAF_BIT set too) once the stack is empty. The stack holds the same.
+const LEAF_BIT: u32 = 0x80000000u;
 const NO_NODE: u32 = 0xffffffffu;
+
+fn leaf_first(position: u32) -> u32 {
+    return position & 0x07ffffffu;
+}
+
+fn leaf_count(position: u32) -> u32 {
+    return (position >> 27u) & 0xfu;
+}
 
 // One step from inner node `node`, given the ray's entry distances to its children (RAY_INF where
 // it misses one): the nearer child it enters, with the farther pushed on the stack; the one it
-// enters; or, entering neither, the node on top of the stack, or NO_NODE when that is empty.
+// enters; or, entering neither, the position on top of the stack, or NO_NODE when that is empty.
 fn next_node(node: BvhNode, tl: f32, tr: f32, sp: ptr<function, u32>) -> u32 {
     if tl != RAY_INF && tr != RAY_INF {
         let near_is_left = tl <= tr;
         if *sp < BVH_STACK_SIZE {
-            bvh_stack[*sp] = select(node.first, node.first + 1u, near_is_left);
+            bvh_stack[*sp] = select(node.left, node.right, near_is_left);
             *sp += 1u;
         }
-        return select(node.first + 1u, node.first, near_is_left);
+        return select(node.right, node.left, near_is_left);
     }
     if tl != RAY_INF {
-        return node.first;
+        return node.left;
     }
     if tr != RAY_INF {
-        return node.first + 1u;
+        return node.right;
     }
     if *sp == 0u {
         return NO_NODE;
@@ -168,30 +179,20 @@ fn trace_closest(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
     let sh = ray_shear(dir);
     let inv_dir = safe_inverse(dir);
     var sp = 0u;
-    var node_index = 0u;
-    if intersect_aabb(origin, inv_dir, bvh_nodes[0].min, bvh_nodes[0].max, hit.t) == RAY_INF {
-        return hit;
-    }
+    var position = 0u;
     loop {
-        var node = bvh_nodes[node_index];
-        var at_leaf = true;
-        while node.count == 0u {
+        while position < LEAF_BIT {
             // Ordered traversal: visit the nearer child first, push the farther one.
-            let left = bvh_nodes[node.first];
-            let right = bvh_nodes[node.first + 1u];
-            let tl = intersect_aabb(origin, inv_dir, left.min, left.max, hit.t);
-            let tr = intersect_aabb(origin, inv_dir, right.min, right.max, hit.t);
-            node_index = next_node(node, tl, tr, &sp);
-            if node_index == NO_NODE {
-                at_leaf = false;
-                break;
-            }
-            node = bvh_nodes[node_index];
+            let node = bvh_nodes[position];
+            let tl = intersect_aabb(origin, inv_dir, node.left_min, node.left_max, hit.t);
+            let tr = intersect_aabb(origin, inv_dir, node.right_min, node.right_max, hit.t);
+            position = next_node(node, tl, tr, &sp);
         }
-        if !at_leaf {
+        if position == NO_NODE {
             break;
         }
-        for (var i = node.first; i < node.first + node.count; i++) {
+        let first = leaf_first(position);
+        for (var i = first; i < first + leaf_count(position); i++) {
             let tri = triangle_corners(i);
             let r = intersect_triangle(origin, sh, tri.p0, tri.p1, tri.p2, hit.t);
             if r.x > 0.0 {
@@ -202,7 +203,7 @@ fn trace_closest(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
             break;
         }
         sp--;
-        node_index = bvh_stack[sp];
+        position = bvh_stack[sp];
     }
     return hit;
 }
@@ -212,27 +213,19 @@ fn trace_occluded(origin: vec3f, dir: vec3f, t_max: f32) -> bool {
     let sh = ray_shear(dir);
     let inv_dir = safe_inverse(dir);
     var sp = 0u;
-    var node_index = 0u;
-    if intersect_aabb(origin, inv_dir, bvh_nodes[0].min, bvh_nodes[0].max, t_max) == RAY_INF {
-        return false;
-    }
+    var position = 0u;
     loop {
-        var node = bvh_nodes[node_index];
-        var at_leaf = true;
-        while node.count == 0u {
-            let tl = intersect_aabb(origin, inv_dir, bvh_nodes[node.first].min, bvh_nodes[node.first].max, t_max);
-            let tr = intersect_aabb(origin, inv_dir, bvh_nodes[node.first + 1u].min, bvh_nodes[node.first + 1u].max, t_max);
-            node_index = next_node(node, tl, tr, &sp);
-            if node_index == NO_NODE {
-                at_leaf = false;
-                break;
-            }
-            node = bvh_nodes[node_index];
+        while position < LEAF_BIT {
+            let node = bvh_nodes[position];
+            let tl = intersect_aabb(origin, inv_dir, node.left_min, node.left_max, t_max);
+            let tr = intersect_aabb(origin, inv_dir, node.right_min, node.right_max, t_max);
+            position = next_node(node, tl, tr, &sp);
         }
-        if !at_leaf {
+        if position == NO_NODE {
             break;
         }
-        for (var i = node.first; i < node.first + node.count; i++) {
+        let first = leaf_first(position);
+        for (var i = first; i < first + leaf_count(position); i++) {
             let tri = triangle_corners(i);
             if intersect_triangle(origin, sh, tri.p0, tri.p1, tri.p2, t_max).x > 0.0 {
                 return true;
@@ -242,7 +235,7 @@ fn trace_occluded(origin: vec3f, dir: vec3f, t_max: f32) -> bool {
             break;
         }
         sp--;
-        node_index = bvh_stack[sp];
+        position = bvh_stack[sp];
     }
     return false;
 }

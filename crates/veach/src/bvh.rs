@@ -1,14 +1,25 @@
 //! Host-side BVH: obvhs builds a BVH2 (PLOC, then reinsertion optimisation and leaf collapsing,
-//! both driven by the surface-area heuristic), which we flatten into 32-byte GPU nodes and a
-//! triangle order in which every leaf's triangles are contiguous.
+//! both driven by the surface-area heuristic), which we flatten into nodes (encoded for the GPU
+//! in `gpu::bvh_nodes`) and a triangle order in which every leaf's triangles are contiguous.
 
-use crate::gpu::layout::BvhNode;
 use crate::scene::Triangle;
 use glam::Vec3A;
 use obvhs::BvhBuildParams;
 use std::time::{Duration, Instant};
 
+/// A node of the tree as built. Inner node (count == 0): children at nodes[first] and
+/// nodes[first + 1]. Leaf: triangles [first, first + count) of `Bvh::order`. The kernels read
+/// it re-encoded, each node with its children's boxes (`gpu::bvh_nodes`).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BvhNode {
+    pub min: [f32; 3],
+    pub first: u32,
+    pub max: [f32; 3],
+    pub count: u32,
+}
+
 pub struct Bvh {
+    /// Root first.
     pub nodes: Vec<BvhNode>,
     /// `order[i]` is the scene triangle stored at position i of the GPU triangle arrays.
     pub order: Vec<u32>,
@@ -22,6 +33,14 @@ pub struct Bvh {
 /// 0.90-0.92× the render time (light, mis, mis-lobes), Veach scene 0.96-0.99×, textured scene
 /// within the spread (Mesa 22.3: 0.93-0.98×); 7 more bytes per triangle (49 at 1M triangles)
 /// (docs/performance.md, "Smaller BVH leaves").
+impl Bvh {
+    /// Nodes the kernels read: the inner ones, each holding its children's boxes (one for a
+    /// tree that is a single leaf).
+    pub fn gpu_nodes(&self) -> usize {
+        self.nodes.iter().filter(|n| n.count == 0).count().max(1)
+    }
+}
+
 fn build_params() -> BvhBuildParams {
     BvhBuildParams { collapse_traversal_cost: 2.0, ..BvhBuildParams::medium_build() }
 }
@@ -30,22 +49,21 @@ pub fn build_bvh(triangles: &[Triangle]) -> Bvh {
     build_bvh_with(triangles, build_params())
 }
 
-/// A BVH of at most `max_nodes` nodes where larger leaves make one: the tree of `build_bvh`, or
-/// failing that obvhs's own medium preset (leaves collapsed at a node cost of 3 triangle tests),
-/// or, if that does not fit either, the first. On lavapipe a BVH in a uniform buffer (at most
-/// 64 KiB) renders the Veach scene in 0.84-0.90x the time even with the larger leaves it needs
-/// there (2629 nodes at cost 2, 1715 at cost 3; docs/performance.md, "Small BVHs in a uniform
-/// buffer").
+/// A BVH of at most `max_nodes` GPU nodes (`Bvh::gpu_nodes`) where larger leaves make one: the
+/// tree of `build_bvh`, or failing that obvhs's own medium preset (leaves collapsed at a node cost
+/// of 3 triangle tests), or, if that does not fit either, the first. On lavapipe a BVH in a uniform
+/// buffer (at most 64 KiB) renders faster even with the larger leaves it may need (docs/performance.md,
+/// "Small BVHs in a uniform buffer").
 pub fn build_bvh_fitting(triangles: &[Triangle], max_nodes: usize) -> Bvh {
     let bvh = build_bvh(triangles);
     // Larger leaves take about a third of the nodes away, never half: a tree over twice the
     // budget is not built a second time (a million triangles' would double the build time).
-    if bvh.nodes.len() <= max_nodes || bvh.nodes.len() > 2 * max_nodes {
+    if bvh.gpu_nodes() <= max_nodes || bvh.gpu_nodes() > 2 * max_nodes {
         return bvh;
     }
     let mut larger_leaves = build_bvh_with(triangles, BvhBuildParams::medium_build());
     larger_leaves.build_time += bvh.build_time;
-    if larger_leaves.nodes.len() <= max_nodes { larger_leaves } else { bvh }
+    if larger_leaves.gpu_nodes() <= max_nodes { larger_leaves } else { bvh }
 }
 
 fn build_bvh_with(triangles: &[Triangle], params: BvhBuildParams) -> Bvh {
@@ -131,13 +149,13 @@ mod tests {
     #[test]
     fn a_bvh_fits_a_node_budget_with_larger_leaves_where_it_can() {
         let tris = grid(30);
-        let full = build_bvh(&tris).nodes.len();
-        assert_eq!(build_bvh_fitting(&tris, full).nodes.len(), full);
+        let full = build_bvh(&tris).gpu_nodes();
+        assert_eq!(build_bvh_fitting(&tris, full).gpu_nodes(), full);
         let fitted = build_bvh_fitting(&tris, full - 1);
-        assert!(fitted.nodes.len() < full, "no smaller tree than {full} nodes");
+        assert!(fitted.gpu_nodes() < full, "no smaller tree than {full} nodes");
         assert_eq!(fitted.order.len(), tris.len());
         // Far over the budget: the first build comes back, without a second.
-        assert_eq!(build_bvh_fitting(&tris, full / 3).nodes.len(), full);
+        assert_eq!(build_bvh_fitting(&tris, full / 3).gpu_nodes(), full);
     }
 
     #[test]

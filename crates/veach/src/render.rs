@@ -315,6 +315,7 @@ impl RenderOutput {
 #[derive(Clone, Debug, Default)]
 pub struct SceneUploadStats {
     pub bvh_build: Duration,
+    /// BVH nodes on the GPU (inner nodes, each with its children's boxes).
     pub bvh_nodes: usize,
     pub bvh_sah_cost: f32,
     pub upload: Duration,
@@ -393,7 +394,7 @@ pub enum BvhMemory {
     Storage,
 }
 
-/// The largest uniform BVH: 64 KiB, the common `maxUniformBufferRange` (2048 nodes).
+/// The largest uniform BVH: 64 KiB, the common `maxUniformBufferRange` (1024 nodes).
 const UNIFORM_BVH_MAX_BYTES: u64 = 64 << 10;
 
 impl Renderer {
@@ -456,21 +457,28 @@ impl Renderer {
 
     /// `upload_scene`, with the BVH's memory chosen by the caller.
     pub fn upload_scene_with(&self, scene: &Scene, memory: BvhMemory) -> Result<GpuScene> {
+        let max_triangles = crate::gpu::bvh_nodes::MAX_FIRST_TRIANGLE as usize + 1;
+        if scene.triangles.len() > max_triangles {
+            return Err(Error::Gpu(format!(
+                "the scene has {} triangles; BVH leaves can address at most {max_triangles}",
+                scene.triangles.len()
+            )));
+        }
         let capacity = self.uniform_bvh_capacity(memory);
         let bvh =
             if capacity > 0 { build_bvh_fitting(&scene.triangles, capacity) } else { build_bvh(&scene.triangles) };
-        // A power of two of at least 64 nodes, so that scenes of similar size share a kernel.
-        let uniform_bvh_nodes =
-            if bvh.nodes.len() <= capacity { bvh.nodes.len().next_power_of_two().max(64).min(capacity) } else { 0 };
         let mut stats = SceneUploadStats {
             bvh_build: bvh.build_time,
-            bvh_nodes: bvh.nodes.len(),
+            bvh_nodes: bvh.gpu_nodes(),
             bvh_sah_cost: bvh.sah_cost,
             ..Default::default()
         };
         let upload_start = Instant::now();
         let features = SceneFeatures::detect(scene);
         let mut arrays: SceneArrays = build_scene_arrays(scene, &features, &bvh);
+        // A power of two of at least 64 nodes, so that scenes of similar size share a kernel.
+        let nodes = arrays.bvh_nodes.len();
+        let uniform_bvh_nodes = if nodes <= capacity { nodes.next_power_of_two().max(64).min(capacity) } else { 0 };
         if uniform_bvh_nodes > 0 {
             arrays.bvh_nodes.resize(uniform_bvh_nodes, layout::BvhNode::default());
         }

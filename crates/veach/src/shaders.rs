@@ -81,7 +81,7 @@ mod tests {
 
     #[test]
     fn all_wgsl_validates_with_naga() {
-        for (textures, uniform_bvh_nodes) in [(false, 0), (true, 0), (false, 2048)] {
+        for (textures, uniform_bvh_nodes) in [(false, 0), (true, 0), (false, 1024)] {
             let source = render_kernel_source(textures, uniform_bvh_nodes);
             let module = validate_wgsl(&source).unwrap_or_else(|e| panic!("WGSL invalid (textures {textures}):\n{e}"));
             assert!(

@@ -77,10 +77,14 @@ pub struct FrameParams {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct BvhNode {
-    pub min: [f32; 3],
-    pub first: u32,
-    pub max: [f32; 3],
-    pub count: u32,
+    pub left_min: [f32; 3],
+    pub left: u32,
+    pub left_max: [f32; 3],
+    pub right: u32,
+    pub right_min: [f32; 3],
+    pub _pad0: u32,
+    pub right_max: [f32; 3],
+    pub _pad1: u32,
 }
 
 #[repr(C)]
@@ -287,7 +291,7 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             emitter_radius,
             sampler
         }),
-        layout!(BvhNode { min, first, max, count }),
+        layout!(BvhNode { left_min, left, left_max, right, right_min, _pad0, right_max, _pad1 }),
         layout!(Vertex { p, normal }),
         layout!(IndexedTriangle { v0, v1, v2, material, light }),
         layout!(Material {

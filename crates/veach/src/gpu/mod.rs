@@ -1,6 +1,7 @@
 //! Everything that talks to wgpu: the shared data layout, the device, and the scene's buffers.
 
 pub mod bindings;
+pub mod bvh_nodes;
 pub mod context;
 pub mod layout;
 pub mod scene_buffers;

@@ -1,5 +1,6 @@
 //! Scene + BVH → the arrays the kernel reads (see `shaders/layout.wgsl`).
 
+use super::bvh_nodes::encode_bvh_nodes;
 use super::layout::{self, NO_LIGHT};
 use crate::alias::alias_table;
 use crate::bvh::Bvh;
@@ -210,7 +211,7 @@ pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) ->
     let textures = with_uvs.then(|| texture_arrays(scene, bvh, &emitter_scene_tris, vertex_uvs));
 
     SceneArrays {
-        bvh_nodes: bvh.nodes.clone(),
+        bvh_nodes: encode_bvh_nodes(&bvh.nodes),
         vertices,
         triangles,
         materials,
