@@ -5,8 +5,9 @@
 
 For each scene: `veach export-mitsuba` writes the same triangles, normals, radiance and camera
 as Mitsuba XML/PLY; a reference is rendered by veach (MIS 4+4, every light, --reference-spp);
-then veach (MIS, 1 light + 1 BRDF sample per camera sample, one light chosen by power, the power
-heuristic) and Mitsuba 3 (`llvm_ad_rgb`, integrator `direct` with emitter_samples = bsdf_samples
+then veach (MIS, 1 light + 1 BRDF sample per camera sample, one light chosen per shading point by
+power and the BSDF (--veach-light-selection; `power` for power alone), the power heuristic) and
+Mitsuba 3 (`llvm_ad_rgb`, integrator `direct` with emitter_samples = bsdf_samples
 = 1, whose MIS weights are the power heuristic with the sample counts: the same estimator) render
 at 1, 2, 4 ... --max-spp samples per pixel over --seeds seeds. Emitters seen directly are left
 out of every image (both renderers' hide_emitters), so errors measure reflected light, as
@@ -94,6 +95,8 @@ def main():
     ap.add_argument("--mitsuba-reference-spp", type=int, default=4096)
     ap.add_argument("--veach", default="target/release/veach")
     ap.add_argument("--veach-sampler", default="sobol", choices=["sobol", "independent"])
+    ap.add_argument("--veach-light-selection", default="bsdf", choices=["power", "bsdf", "uniform"],
+                    help="how veach's timed renders choose their one light (the reference samples each)")
     ap.add_argument("--mitsuba-samplers", default="independent,multijitter",
                     help="comma-separated Mitsuba sampler plugins, one table each")
     args = ap.parse_args()
@@ -148,7 +151,7 @@ def main():
         for spp in budgets:
             for seed in range(1, args.seeds + 1):
                 img, seconds = veach_render(args.veach, scene, out_dir / f"{name}-veach.pfm", w, h, spp, seed, 1, 1,
-                                            sampler=args.veach_sampler)
+                                            selection=args.veach_light_selection, sampler=args.veach_sampler)
                 e = relmse(img, reference)
                 rows.append((name, "veach", spp, seed, seconds, e, e))
                 line = f"{name} spp {spp} seed {seed}: veach {seconds:.3f} s relMSE {e:.3e}"
@@ -176,7 +179,8 @@ def main():
         for r in rows:
             f.write(",".join(str(v) for v in r) + "\n")
     # lavapipe's speed depends on the Mesa release (22.3 against 25: 1.4-3.3x), so say which ran.
-    print(f"veach ({args.veach_sampler} sampler) on {veach_render.driver}; Mitsuba {mi.__version__} ({mi.variant()})")
+    print(f"veach ({args.veach_sampler} sampler, lights by {args.veach_light_selection}) on {veach_render.driver}; "
+          f"Mitsuba {mi.__version__} ({mi.variant()})")
     for sampler in samplers:
         print(f"\nMitsuba with the `{sampler}` sampler:\n")
         print("| scene | spp | veach s | veach relMSE | veach eff. | Mitsuba s | Mitsuba relMSE | Mitsuba eff. "

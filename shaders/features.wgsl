@@ -15,6 +15,8 @@ override HAS_GLOSSY: bool = true;
 override HAS_MIRRORS: bool = true;
 // The contribution images may be written.
 override HAS_AOVS: bool = true;
+// Lights may be chosen per shading point (frame.light_selection == SELECT_BSDF).
+override POINT_LIGHT_SELECTION: bool = true;
 // Light samples may pick directions by solid angle (frame.light_sampling); false: by area only.
 override SOLID_ANGLE_SAMPLING: bool = true;
 

@@ -86,10 +86,13 @@ struct ShadingContext {
     bsdf: BsdfParams,
 }
 
-// The shading frame, the direction to the viewer in it and the BSDF at a surface the camera sees.
+// The shading frame, the direction to the viewer in it and the BSDF at a surface the camera
+// sees; with SELECT_BSDF also the point's light-choice table (prepare_point_selection).
 fn shading_context(s: SurfaceHit, ray_dir: vec3f) -> ShadingContext {
     let f = frame_from_normal(s.ns);
-    return ShadingContext(s, f, frame_to_local(f, -ray_dir), bsdf_params(textured_material(materials[s.material], s.uvs)));
+    let c = ShadingContext(s, f, frame_to_local(f, -ray_dir), bsdf_params(textured_material(materials[s.material], s.uvs)));
+    prepare_point_selection(s.p, f, c.wo, c.bsdf);
+    return c;
 }
 
 // How a light sample is weighted (SamplePlan.light_weighting).

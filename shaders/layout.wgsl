@@ -16,6 +16,7 @@ const HEURISTIC_POWER: u32 = 1u;
 const SELECT_EACH: u32 = 0u;
 const SELECT_UNIFORM: u32 = 1u;
 const SELECT_POWER: u32 = 2u;
+const SELECT_BSDF: u32 = 3u;
 
 const LIGHT_SAMPLING_AREA: u32 = 0u;
 const LIGHT_SAMPLING_SOLID_ANGLE: u32 = 1u;
@@ -234,7 +235,7 @@ struct PixelCounters {
 @group(0) @binding(4) var<storage, read> materials: array<Material>;
 @group(0) @binding(5) var<storage, read> lights: array<Light>;
 @group(0) @binding(6) var<storage, read> emitter_tris: array<EmitterTriangle>;
-// Choosing a light by power (frame.light_selection == SELECT_POWER).
+// Choosing a light by power (SELECT_POWER, and SELECT_BSDF's power half).
 @group(0) @binding(7) var<storage, read> light_picks: array<LightPick>;
 // Running sums per pixel: (sum of radiance, number of camera samples) and (sum of squares, 0).
 @group(0) @binding(8) var<storage, read_write> accum: array<vec4f>;

@@ -19,13 +19,94 @@ fn light_is_delta(kind: u32) -> bool {
     return kind != LIGHT_AREA;
 }
 
-// Probability that light `index` is chosen by the frame's light-selection method.
+// SELECT_BSDF chooses among at most this many lights per shading point; with more it chooses
+// by power (a loop over the lights at every point would cost more than it saves).
+const MAX_POINT_SELECTION_LIGHTS: u32 = 16u;
+
+// SELECT_BSDF: the probability of choosing each light at the current shading point, set by
+// prepare_point_selection when the camera ray's hit is shaded (one shading point per camera
+// sample, so every light sample and MIS weight of the sample reads the same table).
+var<private> point_selection: array<f32, MAX_POINT_SELECTION_LIGHTS>;
+
+fn uses_point_selection() -> bool {
+    return POINT_LIGHT_SELECTION && frame.light_selection == SELECT_BSDF && frame.light_count > 1u &&
+        frame.light_count <= MAX_POINT_SELECTION_LIGHTS;
+}
+
+// A guess at how much light `index` sends to x through the BSDF: its power share times
+// f |cos θ_i| / d² towards its centre (an area light's bounding-sphere centre, clamped to the
+// sphere's radius inside it; a directional light's direction, d = 1). It ranks lights that the
+// lobe faces above lights behind or beside it; it needs to be no more than a guess, since
+// prepare_point_selection mixes it with the power shares.
+fn light_importance(index: u32, x: vec3f, shading: Frame, wo: vec3f, bsdf: BsdfParams) -> f32 {
+    let light = lights[index];
+    var to_light = -light.direction;
+    var dist_sq = 1.0;
+    if light.kind != LIGHT_DIRECTIONAL {
+        let d = light.position - x;
+        let len_sq = dot(d, d);
+        if !(len_sq > 0.0) {
+            return 0.0;
+        }
+        to_light = d * inverseSqrt(len_sq);
+        dist_sq = max(len_sq, light.bound_radius * light.bound_radius);
+    }
+    let wi = frame_to_local(shading, to_light);
+    let f = bsdf_eval_lobes(bsdf, wo, wi);
+    return light_picks[index].pdf * luminance(f.diffuse + f.glossy) * max(wi.z, 0.0) / dist_sq;
+}
+
+// SELECT_BSDF at shading point x: P(light i) = ½ P_power(i) + ½ g_i / Σ g (g: light_importance),
+// or P_power(i) where every g is zero. The power half is a defensive mixture (Hesterberg,
+// "Weighted Average Importance Sampling and Defensive Mixture Distributions", Technometrics
+// 37(2), 1995): every light with power keeps at least half its power share, so the estimator
+// is unbiased whatever the guess, and a bad guess costs at most twice the second moment of
+// choosing by power (the sample's weight 1/P is at most twice its weight there).
+fn prepare_point_selection(x: vec3f, shading: Frame, wo: vec3f, bsdf: BsdfParams) {
+    if !uses_point_selection() {
+        return;
+    }
+    var sum = 0.0;
+    for (var i = 0u; i < frame.light_count; i++) {
+        let g = light_importance(i, x, shading, wo, bsdf);
+        point_selection[i] = g;
+        sum += g;
+    }
+    let guess = select(0.0, 0.5 / sum, sum > 0.0 && sum < RAY_INF);
+    let power = select(1.0, 0.5, guess > 0.0);
+    for (var i = 0u; i < frame.light_count; i++) {
+        point_selection[i] = power * light_picks[i].pdf + guess * point_selection[i];
+    }
+}
+
+// A light by the point's table: the interval of u in the table's running sum, with u remapped
+// inside it (as alias_pick remaps), so that the sample's stratification carries over.
+fn select_light_at_point(u: f32) -> DiscretePick {
+    var start = 0.0;
+    var pick = DiscretePick(0u, u);
+    for (var i = 0u; i < frame.light_count; i++) {
+        let p = point_selection[i];
+        // The last light with p > 0 whose interval starts at or below u: rounding in the sum
+        // cannot leave u without a light.
+        if p > 0.0 && u >= start {
+            pick = DiscretePick(i, clamp((u - start) / p, 0.0, ONE_MINUS_EPSILON));
+        }
+        start += p;
+    }
+    return pick;
+}
+
+// Probability that light `index` is chosen by the frame's light-selection method (at the
+// current shading point, for SELECT_BSDF).
 fn light_selection_pdf(index: u32) -> f32 {
+    if uses_point_selection() {
+        return point_selection[min(index, MAX_POINT_SELECTION_LIGHTS - 1u)];
+    }
     switch frame.light_selection {
         case SELECT_UNIFORM: {
             return 1.0 / f32(frame.light_count);
         }
-        case SELECT_POWER: {
+        case SELECT_POWER, SELECT_BSDF: {
             return light_picks[index].pdf;
         }
         default: {
@@ -74,7 +155,10 @@ fn select_light_by_power(u: f32) -> DiscretePick {
 }
 
 fn select_light(u: f32) -> DiscretePick {
-    if frame.light_selection == SELECT_POWER {
+    if uses_point_selection() {
+        return select_light_at_point(u);
+    }
+    if frame.light_selection == SELECT_POWER || frame.light_selection == SELECT_BSDF {
         return select_light_by_power(u);
     }
     let b = alias_bucket(u, frame.light_count);

@@ -210,6 +210,10 @@ fn area_and_point_light_on_a_lambertian_plane_match_the_closed_form() {
         ("mis-brdf-only", settings(Strategy::Mis, 32, 0, 16, Each, balance), &area),
         ("mis-lobes", settings(Strategy::MisLobes, 32, 8, 8, Each, balance), &both),
         ("mis-lobes-power", settings(Strategy::MisLobes, 32, 8, 8, by_power, balance), &both),
+        // Lights chosen per point, by the BSDF and power (two lights here: the table is used).
+        ("light-bsdf", settings(Strategy::Light, 32, 16, 0, LightSelection::Bsdf, balance), &both),
+        ("mis-bsdf", settings(Strategy::Mis, 32, 8, 8, LightSelection::Bsdf, power), &both),
+        ("mis-lobes-bsdf", settings(Strategy::MisLobes, 32, 8, 8, LightSelection::Bsdf, balance), &both),
     ];
     let cases: Vec<Case> =
         cases.into_iter().map(|(n, s, e)| Case { name: n.into(), settings: s, expected: e.clone() }).collect();

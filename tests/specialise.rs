@@ -8,7 +8,7 @@ use glam::{Mat4, Vec3};
 use std::time::Duration;
 use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData, Punctual};
 use veach::features::KernelKey;
-use veach::{Execution, RenderSettings, Strategy};
+use veach::{Execution, LightSelection, RenderSettings, Strategy};
 
 fn point_lit_plane() -> veach::Scene {
     let mut g = GltfBuilder::new();
@@ -49,7 +49,9 @@ fn specialised_kernels_render_the_generic_kernels_image() {
         let camera = scene.camera(None).unwrap();
         let gpu_scene = upload(&scene);
         for strategy in Strategy::ALL {
-            for write_aovs in [false, true] {
+            for (write_aovs, light_selection) in
+                [(false, LightSelection::Power), (true, LightSelection::Power), (false, LightSelection::Bsdf)]
+            {
                 let settings = RenderSettings {
                     width: 24,
                     height: 16,
@@ -57,6 +59,7 @@ fn specialised_kernels_render_the_generic_kernels_image() {
                     strategy,
                     light_samples: 2,
                     brdf_samples: 2,
+                    light_selection,
                     write_aovs,
                     seed: 9,
                     ..Default::default()
@@ -66,7 +69,10 @@ fn specialised_kernels_render_the_generic_kernels_image() {
                 assert_ne!(special.kernel, KernelKey::generic());
                 assert_eq!(generic.kernel, KernelKey::generic());
                 assert_eq!(special.kernel.uniform_bvh_nodes > 0, cpu, "{name}: BVH memory");
-                assert_eq!(special.sum, generic.sum, "{name} {strategy:?} aovs {write_aovs}: images differ");
+                assert_eq!(
+                    special.sum, generic.sum,
+                    "{name} {strategy:?} {light_selection:?} aovs {write_aovs}: images differ"
+                );
                 if write_aovs {
                     let (a, b) = (special.contributions.unwrap(), generic.contributions.unwrap());
                     assert_eq!(a.light, b.light, "{name} {strategy:?}: light contributions differ");
@@ -87,7 +93,12 @@ fn wavefront_kernels_render_the_megakernels_image() {
         let camera = scene.camera(None).unwrap();
         let gpu_scene = upload(&scene);
         for strategy in Strategy::ALL {
-            for (write_aovs, dispatch_target) in [(false, Duration::from_secs(1)), (true, Duration::from_nanos(1))] {
+            // The second case also chooses lights per point: the direction kernel rebuilds the
+            // point's table from the deferred hit.
+            for (write_aovs, dispatch_target, light_selection) in [
+                (false, Duration::from_secs(1), LightSelection::Power),
+                (true, Duration::from_nanos(1), LightSelection::Bsdf),
+            ] {
                 let settings = RenderSettings {
                     width: 24,
                     height: 16,
@@ -95,6 +106,7 @@ fn wavefront_kernels_render_the_megakernels_image() {
                     strategy,
                     light_samples: 2,
                     brdf_samples: 2,
+                    light_selection,
                     write_aovs,
                     dispatch_target,
                     seed: 5,
@@ -108,7 +120,7 @@ fn wavefront_kernels_render_the_megakernels_image() {
                     &camera,
                 );
                 assert!(!mega.kernel.wavefront && wave.kernel.wavefront);
-                let what = format!("{name} {strategy:?} aovs {write_aovs}");
+                let what = format!("{name} {strategy:?} {light_selection:?} aovs {write_aovs}");
                 assert_eq!(wave.sum, mega.sum, "{what}: images differ");
                 assert_eq!(wave.sum_sq, mega.sum_sq, "{what}: sums of squares differ");
                 assert_eq!((wave.rays, wave.nonfinite_samples), (mega.rays, mega.nonfinite_samples), "{what}");

@@ -238,6 +238,7 @@ fn mis_variants_agree_on_the_veach_mis_scene() {
             config("mis-balance", Strategy::Mis, 64, 2, 4, Each, Balance),
             config("mis-power", Strategy::Mis, 64, 4, 4, Each, PowerHeuristic),
             config("mis-power-selection", Strategy::Mis, 64, 8, 8, Power, PowerHeuristic),
+            config("mis-bsdf-selection", Strategy::Mis, 64, 4, 4, LightSelection::Bsdf, PowerHeuristic),
             config("mis-uniform-selection", Strategy::Mis, 64, 8, 4, Uniform, Balance),
             config("mis-brdf-heavy", Strategy::Mis, 64, 1, 16, Each, PowerHeuristic),
             config("mis-lobes", Strategy::MisLobes, 64, 4, 4, Power, Balance),

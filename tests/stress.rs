@@ -33,12 +33,13 @@ fn settings(strategy: Strategy, selection: LightSelection, spp: u32, seed: u32) 
     }
 }
 
-const STRATEGIES: [(Strategy, LightSelection); 7] = [
+const STRATEGIES: [(Strategy, LightSelection); 8] = [
     (Strategy::Uniform, LightSelection::Each),
     (Strategy::Brdf, LightSelection::Each),
     (Strategy::Light, LightSelection::Each),
     (Strategy::Mis, LightSelection::Each),
     (Strategy::Mis, LightSelection::Power),
+    (Strategy::Mis, LightSelection::Bsdf),
     (Strategy::MisLobes, LightSelection::Each),
     (Strategy::MisLobes, LightSelection::Power),
 ];

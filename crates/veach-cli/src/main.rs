@@ -158,6 +158,9 @@ enum SelectionArg {
     Uniform,
     /// One light per sample, chosen by emitted power
     Power,
+    /// One light per sample, chosen per shading point: half by power, half by power times the
+    /// BSDF towards the light (by power beyond 16 lights)
+    Bsdf,
 }
 
 #[derive(clap::Args)]
@@ -540,6 +543,7 @@ fn selection_of(arg: SelectionArg) -> LightSelection {
         SelectionArg::Each => LightSelection::Each,
         SelectionArg::Uniform => LightSelection::Uniform,
         SelectionArg::Power => LightSelection::Power,
+        SelectionArg::Bsdf => LightSelection::Bsdf,
     }
 }
 

@@ -191,6 +191,7 @@ impl ViewerApp {
             LightSelection::Each => "each light",
             LightSelection::Uniform => "uniform light",
             LightSelection::Power => "light by power",
+            LightSelection::Bsdf => "light by BSDF",
         };
         format!(
             "{} {counts}, {selection} ({}), {} samples, seed {}",
@@ -378,9 +379,12 @@ impl ViewerApp {
             ui.radio_value(&mut c.light_selection, LightSelection::Each, "every light");
             ui.radio_value(&mut c.light_selection, LightSelection::Uniform, "one, uniformly");
             ui.radio_value(&mut c.light_selection, LightSelection::Power, "one, by power");
-            ui.label("point on a light");
-            ui.radio_value(&mut c.light_sampling, LightSampling::Area, "uniform in area");
-            ui.radio_value(&mut c.light_sampling, LightSampling::SolidAngle, "uniform in solid angle");
+            ui.radio_value(&mut c.light_selection, LightSelection::Bsdf, "one, by BSDF and power");
+            ui.horizontal(|ui| {
+                ui.label("point on a light, uniform in");
+                ui.radio_value(&mut c.light_sampling, LightSampling::Area, "area");
+                ui.radio_value(&mut c.light_sampling, LightSampling::SolidAngle, "solid angle");
+            });
         });
         ui.horizontal(|ui| {
             ui.label("samples").on_hover_text(

@@ -104,6 +104,8 @@ pub struct KernelKey {
     pub aovs: bool,
     /// Light samples may be taken by solid angle (`LightSampling::SolidAngle`).
     pub solid_angle: bool,
+    /// Lights may be chosen per shading point (`LightSelection::Bsdf`).
+    pub point_selection: bool,
     /// The texture module (shaders/textures.wgsl and its bindings) is in the kernel...
     pub textures: bool,
     /// ...with lookups of these kinds: base colour, metallic-roughness, emissive, normal.
@@ -125,6 +127,7 @@ impl KernelKey {
             mirrors: true,
             aovs: true,
             solid_angle: true,
+            point_selection: true,
             textures: true,
             texture_kinds: [true; 4],
             wavefront: false,
@@ -152,6 +155,9 @@ impl KernelKey {
             mirrors: features.any_mirror,
             aovs: settings.write_aovs,
             solid_angle: features.area_lights && settings.light_sampling == crate::render::LightSampling::SolidAngle,
+            point_selection: !features.single_light
+                && settings.light_selection == crate::render::LightSelection::Bsdf
+                && effective_strategy(features, settings).0.samples_lights(),
             textures: features.textures(),
             texture_kinds: [
                 features.base_color_texture,
@@ -183,6 +189,7 @@ impl KernelKey {
             ("HAS_MIRRORS", flag(self.mirrors)),
             ("HAS_AOVS", flag(self.aovs)),
             ("SOLID_ANGLE_SAMPLING", flag(self.solid_angle)),
+            ("POINT_LIGHT_SELECTION", flag(self.point_selection)),
         ];
         // These exist only in textures.wgsl.
         if self.textures {

@@ -42,6 +42,10 @@ pub enum LightSelection {
     Uniform,
     /// One light per sample, chosen with probability proportional to its power.
     Power,
+    /// One light per sample, chosen per shading point: half by power, half by power times the
+    /// BSDF and cosine towards the light over its squared distance (`prepare_point_selection`
+    /// in shaders/lights.wgsl). By power where a scene has more than 16 lights.
+    Bsdf,
 }
 
 /// How light sampling picks a point on an emitter triangle (after choosing the triangle by area).
@@ -608,6 +612,7 @@ impl Renderer {
                 LightSelection::Each => layout::SELECT_EACH,
                 LightSelection::Uniform => layout::SELECT_UNIFORM,
                 LightSelection::Power => layout::SELECT_POWER,
+                LightSelection::Bsdf => layout::SELECT_BSDF,
             },
             light_count: scene.light_count,
             emitter_centre: scene.emitter_bound.0,

@@ -16,6 +16,7 @@ pub const HEURISTIC_POWER: u32 = 1;
 pub const SELECT_EACH: u32 = 0;
 pub const SELECT_UNIFORM: u32 = 1;
 pub const SELECT_POWER: u32 = 2;
+pub const SELECT_BSDF: u32 = 3;
 
 pub const LIGHT_SAMPLING_AREA: u32 = 0;
 pub const LIGHT_SAMPLING_SOLID_ANGLE: u32 = 1;
