@@ -99,14 +99,13 @@ struct Vertex {
     normal: u32,
 }
 
-// A triangle, in BVH order: its corners (indices into `vertices`), its material, and the index
-// into `lights` of the area light it belongs to, or NO_LIGHT. 20 bytes.
+// A triangle, in BVH order: its corners (indices into `vertices`) and its material, 16 bytes
+// so that a small scene's triangles fit a uniform array (its area light is in `triangle_lights`).
 struct IndexedTriangle {
     v0: u32,
     v1: u32,
     v2: u32,
     material: u32,
-    light: u32,
 }
 
 // Octahedral unit-vector decoding (Cigolle et al., "A Survey of Efficient Representations for
@@ -227,11 +226,15 @@ struct PixelCounters {
 // shader and compiles a new variant whenever they change, as row_start and sample_start do on
 // every dispatch; that cost ~12 ms and 0.7-7.6 MiB of never-freed memory per dispatch.
 @group(0) @binding(0) var<storage, read> frame: FrameParams;
-// On CPU adapters a small BVH is a uniform array instead (shaders.rs rewrites this line; render.rs,
-// BvhMemory): its contents never change during a render, so lavapipe compiles it once.
+// On CPU adapters a small scene's BVH, vertices and triangles are uniform arrays instead
+// (shaders.rs rewrites these three lines; render.rs, BvhMemory): their contents never change
+// during a render, so lavapipe compiles the kernel once.
 @group(0) @binding(1) var<storage, read> bvh_nodes: array<BvhNode>;
 @group(0) @binding(2) var<storage, read> vertices: array<Vertex>;
 @group(0) @binding(3) var<storage, read> triangles: array<IndexedTriangle>;
+// The index into `lights` of the area light each triangle belongs to, or NO_LIGHT (binding 23:
+// 8 to 22 are taken).
+@group(0) @binding(23) var<storage, read> triangle_lights: array<u32>;
 @group(0) @binding(4) var<storage, read> materials: array<Material>;
 @group(0) @binding(5) var<storage, read> lights: array<Light>;
 @group(0) @binding(6) var<storage, read> emitter_tris: array<EmitterTriangle>;

@@ -40,7 +40,7 @@ const TEST_TEXTURED_MATERIAL: u32 = 31u;
 // found the way a BRDF sample finds it: by tracing the ray to the emitter.
 fn traced_light_pdf(x: vec3f, wi: vec3f) -> f32 {
     let hit = trace_closest(x, wi, RAY_INF);
-    if !hit.found || triangles[hit.tri].light != test.light_index {
+    if !hit.found || triangle_lights[hit.tri] != test.light_index {
         return 0.0;
     }
     let v = triangle_positions(triangles[hit.tri]);

@@ -68,7 +68,9 @@ fn specialised_kernels_render_the_generic_kernels_image() {
                 let generic = render(&gpu_scene, &RenderSettings { specialise: false, ..settings.clone() }, &camera);
                 assert_ne!(special.kernel, KernelKey::generic());
                 assert_eq!(generic.kernel, KernelKey::generic());
-                assert_eq!(special.kernel.uniform_bvh_nodes > 0, cpu, "{name}: BVH memory");
+                let uniform = special.kernel.uniform;
+                let all_uniform = uniform.bvh_nodes > 0 && uniform.vertices > 0 && uniform.triangles > 0;
+                assert_eq!(all_uniform, cpu, "{name}: scene memory {uniform:?}");
                 assert_eq!(
                     special.sum, generic.sum,
                     "{name} {strategy:?} {light_selection:?} aovs {write_aovs}: images differ"

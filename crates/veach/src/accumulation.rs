@@ -137,8 +137,8 @@ impl Accumulation {
         let outputs = [&accum, &accum_sq, &counters, &aov_light, &aov_brdf];
         let mut key = KernelKey::for_render(&scene.features, settings, gpu.auto_execution());
         if settings.specialise {
-            // The scene's BVH buffer is also a uniform buffer where that pays (`upload_scene`).
-            key.uniform_bvh_nodes = scene.uniform_bvh_nodes;
+            // The scene's small arrays are also uniform buffers where that pays (`upload_scene`).
+            key.uniform = scene.uniform;
         }
         // The deferred samples of one dispatch: a band of rows, each pixel once, within the
         // binding size and the direction kernel's one-dimensional indirect dispatch.

@@ -92,6 +92,18 @@ impl SceneFeatures {
     }
 }
 
+/// The scene arrays a kernel reads from uniform buffers instead of storage buffers, each as a
+/// uniform array of this many elements (0: storage). On CPU adapters, where a scene's array fits
+/// in 64 KiB (`GpuScene`, `BvhMemory`): lavapipe gathers a uniform array's elements where it
+/// loads a storage buffer's lane by lane (docs/performance.md, "Small BVHs in a uniform buffer",
+/// "Small scenes' triangles in uniform buffers").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub struct UniformArrays {
+    pub bvh_nodes: u32,
+    pub vertices: u32,
+    pub triangles: u32,
+}
+
 /// The override constants of one kernel. `KernelKey::generic()` is the kernel for everything.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct KernelKey {
@@ -112,9 +124,9 @@ pub struct KernelKey {
     pub texture_kinds: [bool; 4],
     /// The wavefront kernels (shaders/wavefront.wgsl) instead of `render`.
     pub wavefront: bool,
-    /// 0: `bvh_nodes` is a storage buffer; N > 0: a uniform buffer of N nodes (`GpuScene`
-    /// decides, for small BVHs on CPU adapters).
-    pub uniform_bvh_nodes: u32,
+    /// Scene arrays read from uniform buffers (`GpuScene` decides, for small scenes on CPU
+    /// adapters); none in the generic kernel.
+    pub uniform: UniformArrays,
 }
 
 impl KernelKey {
@@ -131,7 +143,7 @@ impl KernelKey {
             textures: true,
             texture_kinds: [true; 4],
             wavefront: false,
-            uniform_bvh_nodes: 0,
+            uniform: UniformArrays::default(),
         }
     }
 
@@ -166,7 +178,7 @@ impl KernelKey {
                 features.normal_texture,
             ],
             wavefront: uses_wavefront(features, settings, auto),
-            uniform_bvh_nodes: 0,
+            uniform: UniformArrays::default(),
         }
     }
 

@@ -5,7 +5,7 @@
 use crate::accumulation::Accumulation;
 use crate::bvh::{build_bvh, build_bvh_fitting};
 use crate::error::{Error, Result};
-use crate::features::{KernelKey, SceneFeatures};
+use crate::features::{KernelKey, SceneFeatures, UniformArrays};
 use crate::gpu::bindings;
 use crate::gpu::context::GpuContext;
 use crate::gpu::layout::{self, FrameParams};
@@ -329,10 +329,11 @@ pub struct SceneUploadStats {
 /// A scene on the GPU: its BVH, triangles, materials and lights, ready to render with any
 /// settings and camera.
 pub struct GpuScene {
+    /// bvh_nodes … light_picks (bindings 1-7), then triangle_lights.
     pub(crate) buffers: Vec<wgpu::Buffer>,
-    /// Nodes the BVH buffer holds as a uniform buffer too (padded to this), 0 where it is a
-    /// storage buffer only (see `BvhMemory`).
-    pub(crate) uniform_bvh_nodes: u32,
+    /// The arrays among the first three that are uniform buffers too, with the length they are
+    /// padded to (see `BvhMemory`).
+    pub(crate) uniform: UniformArrays,
     /// vertex_uvs, texture_infos, texels, emitter_source: only for scenes with textures.
     pub(crate) texture_buffers: Option<[wgpu::Buffer; 4]>,
     pub(crate) light_count: u32,
@@ -383,14 +384,15 @@ fn scene_buffer<T: bytemuck::Pod + Default>(
     })
 }
 
-/// Where the kernels read the BVH from.
+/// Where the kernels read the BVH, vertices and triangles from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BvhMemory {
-    /// A uniform buffer where the BVH fits in one (with larger leaves if that makes it fit) and
-    /// the adapter is a CPU (lavapipe); a storage buffer otherwise. lavapipe gathers a uniform
-    /// array's elements with vector loads where it loads a storage buffer's lane by lane: the
-    /// Cornell box renders in 0.86x the time, the Veach scene in 0.84-0.90x (docs/performance.md,
-    /// "Small BVHs in a uniform buffer"). GPUs keep storage: their constant caches serialise
+    /// Uniform buffers where each array fits in one (the BVH with larger leaves if that makes it
+    /// fit) and the adapter is a CPU (lavapipe); storage buffers otherwise. lavapipe gathers a
+    /// uniform array's elements with vector loads where it loads a storage buffer's lane by lane:
+    /// the BVH made the Cornell box 0.86x the render time, the Veach scene 0.84-0.90x, the
+    /// vertices and triangles then 0.94x and 0.87x (docs/performance.md, "Small BVHs in a uniform
+    /// buffer", "Small scenes' triangles in uniform buffers"). GPUs keep storage: their constant caches serialise
     /// loads from different addresses within a warp (CUDA C++ Programming Guide, "Constant
     /// Memory"), which is what a traversal does; not measured here.
     Auto,
@@ -398,8 +400,21 @@ pub enum BvhMemory {
     Storage,
 }
 
-/// The largest uniform BVH: 64 KiB, the common `maxUniformBufferRange` (1024 nodes).
-const UNIFORM_BVH_MAX_BYTES: u64 = 64 << 10;
+/// The largest uniform array: 64 KiB, the common `maxUniformBufferRange` (1024 BVH nodes, 4096
+/// vertices or triangles).
+const UNIFORM_ARRAY_MAX_BYTES: u64 = 64 << 10;
+
+/// The length of `array` as a uniform array where it has at most `capacity` elements (padded to
+/// it with default elements), or 0. A power of two of at least 64, so that scenes of similar
+/// size share a kernel.
+fn pad_for_uniform<T: Default + Clone>(array: &mut Vec<T>, capacity: usize) -> u32 {
+    if array.len() > capacity {
+        return 0;
+    }
+    let n = array.len().next_power_of_two().max(64).min(capacity);
+    array.resize(n, T::default());
+    n as u32
+}
 
 impl Renderer {
     /// A renderer on `gpu`. Kernels are compiled when a render first needs them.
@@ -416,7 +431,7 @@ impl Renderer {
         let entry_points: &[&str] =
             if key.wavefront { &shaders::WAVEFRONT_ENTRY_POINTS } else { &[shaders::RENDER_ENTRY_POINT] };
         let extra = bindings::ExtraBindings {
-            uniform_bvh: key.uniform_bvh_nodes > 0,
+            uniform: key.uniform,
             textures: key.textures,
             deferred: key.wavefront,
             test_io: false,
@@ -424,7 +439,7 @@ impl Renderer {
         let (pipelines, layout) = bindings::create_pipelines(
             &self.gpu.device,
             "veach render kernel",
-            shaders::render_kernel_source(key.textures, key.uniform_bvh_nodes),
+            shaders::render_kernel_source(key.textures, key.uniform),
             entry_points,
             extra,
             &key.constants(),
@@ -449,14 +464,15 @@ impl Renderer {
         self.upload_scene_with(scene, BvhMemory::Auto)
     }
 
-    /// Nodes a uniform buffer of the BVH may hold on this adapter, 0 where the BVH stays in storage.
-    fn uniform_bvh_capacity(&self, memory: BvhMemory) -> usize {
+    /// Elements of type T a uniform buffer may hold on this adapter, 0 where the arrays stay in
+    /// storage.
+    fn uniform_capacity<T>(&self, memory: BvhMemory) -> usize {
         let cpu = self.gpu.adapter_info.device_type == wgpu::DeviceType::Cpu;
         if memory == BvhMemory::Storage || !cpu {
             return 0;
         }
-        let bytes = self.gpu.device.limits().max_uniform_buffer_binding_size.min(UNIFORM_BVH_MAX_BYTES);
-        bytes as usize / std::mem::size_of::<layout::BvhNode>()
+        let bytes = self.gpu.device.limits().max_uniform_buffer_binding_size.min(UNIFORM_ARRAY_MAX_BYTES);
+        bytes as usize / std::mem::size_of::<T>()
     }
 
     /// `upload_scene`, with the BVH's memory chosen by the caller.
@@ -468,7 +484,7 @@ impl Renderer {
                 scene.triangles.len()
             )));
         }
-        let capacity = self.uniform_bvh_capacity(memory);
+        let capacity = self.uniform_capacity::<layout::BvhNode>(memory);
         let bvh =
             if capacity > 0 { build_bvh_fitting(&scene.triangles, capacity) } else { build_bvh(&scene.triangles) };
         let mut stats = SceneUploadStats {
@@ -480,12 +496,11 @@ impl Renderer {
         let upload_start = Instant::now();
         let features = SceneFeatures::detect(scene);
         let mut arrays: SceneArrays = build_scene_arrays(scene, &features, &bvh);
-        // A power of two of at least 64 nodes, so that scenes of similar size share a kernel.
-        let nodes = arrays.bvh_nodes.len();
-        let uniform_bvh_nodes = if nodes <= capacity { nodes.next_power_of_two().max(64).min(capacity) } else { 0 };
-        if uniform_bvh_nodes > 0 {
-            arrays.bvh_nodes.resize(uniform_bvh_nodes, layout::BvhNode::default());
-        }
+        let uniform = UniformArrays {
+            bvh_nodes: pad_for_uniform(&mut arrays.bvh_nodes, capacity),
+            vertices: pad_for_uniform(&mut arrays.vertices, self.uniform_capacity::<layout::Vertex>(memory)),
+            triangles: pad_for_uniform(&mut arrays.triangles, self.uniform_capacity::<layout::IndexedTriangle>(memory)),
+        };
         let device = &self.gpu.device;
         let max_binding = device.limits().max_storage_buffer_binding_size;
         let too_big = [
@@ -503,15 +518,16 @@ impl Renderer {
                 max_binding >> 20
             )));
         }
-        let bvh_usage = if uniform_bvh_nodes > 0 { wgpu::BufferUsages::UNIFORM } else { wgpu::BufferUsages::empty() };
+        let also_uniform = |n: u32| if n > 0 { wgpu::BufferUsages::UNIFORM } else { wgpu::BufferUsages::empty() };
         let buffers = vec![
-            scene_buffer(device, "bvh_nodes", &arrays.bvh_nodes, bvh_usage),
-            storage_buffer(device, "vertices", &arrays.vertices),
-            storage_buffer(device, "triangles", &arrays.triangles),
+            scene_buffer(device, "bvh_nodes", &arrays.bvh_nodes, also_uniform(uniform.bvh_nodes)),
+            scene_buffer(device, "vertices", &arrays.vertices, also_uniform(uniform.vertices)),
+            scene_buffer(device, "triangles", &arrays.triangles, also_uniform(uniform.triangles)),
             storage_buffer(device, "materials", &arrays.materials),
             storage_buffer(device, "lights", &arrays.lights),
             storage_buffer(device, "emitter_tris", &arrays.emitter_tris),
             storage_buffer(device, "light_picks", &arrays.light_picks),
+            storage_buffer(device, "triangle_lights", &arrays.triangle_lights),
         ];
         // Scenes without textures upload none: their kernels do not bind any.
         let texture_buffers = arrays.textures.as_ref().map(|t| {
@@ -526,7 +542,7 @@ impl Renderer {
         stats.upload = upload_start.elapsed();
         Ok(GpuScene {
             buffers,
-            uniform_bvh_nodes: uniform_bvh_nodes as u32,
+            uniform,
             texture_buffers,
             light_count: scene.lights.len() as u32,
             emitter_bound: arrays.emitter_bound,
@@ -547,12 +563,17 @@ impl Renderer {
     ) -> wgpu::BindGroup {
         let layout = &kernel.layout;
         let mut entries = vec![wgpu::BindGroupEntry { binding: bindings::FRAME, resource: frame.as_entire_binding() }];
-        for (i, b) in scene.buffers.iter().enumerate() {
+        let (triangle_lights, scene_arrays) = scene.buffers.split_last().expect("scene buffers");
+        for (i, b) in scene_arrays.iter().enumerate() {
             entries.push(wgpu::BindGroupEntry {
                 binding: bindings::SCENE_FIRST + i as u32,
                 resource: b.as_entire_binding(),
             });
         }
+        entries.push(wgpu::BindGroupEntry {
+            binding: bindings::TRIANGLE_LIGHTS,
+            resource: triangle_lights.as_entire_binding(),
+        });
         for (i, b) in outputs.iter().enumerate() {
             entries.push(wgpu::BindGroupEntry {
                 binding: bindings::OUTPUT_FIRST + i as u32,

@@ -1,5 +1,7 @@
 //! The WGSL kernel, composed at load time from one file per concept in `shaders/`.
 
+use crate::features::UniformArrays;
+
 /// The shader files in the order they are joined. Later files use what earlier ones declare.
 /// `TEXTURES` marks where the texture module goes: `textures.wgsl` for scenes with textures
 /// (and the generic kernel), `textures_none.wgsl` (same functions, no bindings) otherwise.
@@ -30,14 +32,12 @@ pub const TEST_ENTRY_POINT: &str = "run_test";
 /// The render kernel's source (with textures) followed by the test kernels (see `gpu::test_kernel`).
 pub fn test_kernel_source() -> String {
     let (name, text) = TEST_KERNELS;
-    format!("{}// ---- shaders/{name} ----\n{text}\n", render_kernel_source(true, 0))
+    format!("{}// ---- shaders/{name} ----\n{text}\n", render_kernel_source(true, UniformArrays::default()))
 }
 
-/// `bvh_nodes` as layout.wgsl declares it, and as a uniform array of n nodes.
-const BVH_STORAGE_DECLARATION: &str = "var<storage, read> bvh_nodes: array<BvhNode>;";
-fn bvh_uniform_declaration(n: u32) -> String {
-    format!("var<uniform> bvh_nodes: array<BvhNode, {n}>;")
-}
+/// The arrays that may be uniform, as layout.wgsl declares them: name and element type.
+const UNIFORM_CANDIDATES: [(&str, &str); 3] =
+    [("bvh_nodes", "BvhNode"), ("vertices", "Vertex"), ("triangles", "IndexedTriangle")];
 
 /// Name of the compute entry point in `integrator.wgsl`.
 pub const RENDER_ENTRY_POINT: &str = "render";
@@ -45,9 +45,9 @@ pub const RENDER_ENTRY_POINT: &str = "render";
 pub const WAVEFRONT_ENTRY_POINTS: [&str; 3] = ["render_light_pass", "prepare_direction_pass", "render_direction_pass"];
 
 /// The whole kernel source. Each file is preceded by a marker comment so that a line number in
-/// a WGSL error can be traced back to its file. With `uniform_bvh_nodes` > 0 the BVH is read from
-/// a uniform array of that many nodes instead of a storage buffer (`KernelKey`).
-pub fn render_kernel_source(textures: bool, uniform_bvh_nodes: u32) -> String {
+/// a WGSL error can be traced back to its file. The arrays of `uniform` with a length are read
+/// from uniform arrays of that length instead of storage buffers (`KernelKey::uniform`).
+pub fn render_kernel_source(textures: bool, uniform: UniformArrays) -> String {
     let mut source = String::new();
     for &file in SHADER_FILES {
         let (name, text) = match file {
@@ -59,9 +59,11 @@ pub fn render_kernel_source(textures: bool, uniform_bvh_nodes: u32) -> String {
         source.push_str(text);
         source.push('\n');
     }
-    if uniform_bvh_nodes > 0 {
-        assert!(source.contains(BVH_STORAGE_DECLARATION), "layout.wgsl declares bvh_nodes otherwise");
-        source = source.replace(BVH_STORAGE_DECLARATION, &bvh_uniform_declaration(uniform_bvh_nodes));
+    let lengths = [uniform.bvh_nodes, uniform.vertices, uniform.triangles];
+    for ((name, element), n) in UNIFORM_CANDIDATES.into_iter().zip(lengths).filter(|(_, n)| *n > 0) {
+        let storage = format!("var<storage, read> {name}: array<{element}>;");
+        assert!(source.contains(&storage), "layout.wgsl declares {name} otherwise");
+        source = source.replace(&storage, &format!("var<uniform> {name}: array<{element}, {n}>;"));
     }
     source
 }
@@ -81,8 +83,10 @@ mod tests {
 
     #[test]
     fn all_wgsl_validates_with_naga() {
-        for (textures, uniform_bvh_nodes) in [(false, 0), (true, 0), (false, 1024)] {
-            let source = render_kernel_source(textures, uniform_bvh_nodes);
+        let small = UniformArrays { bvh_nodes: 1024, vertices: 4096, triangles: 4096 };
+        for (textures, uniform) in [(false, UniformArrays::default()), (true, UniformArrays::default()), (false, small)]
+        {
+            let source = render_kernel_source(textures, uniform);
             let module = validate_wgsl(&source).unwrap_or_else(|e| panic!("WGSL invalid (textures {textures}):\n{e}"));
             assert!(
                 module

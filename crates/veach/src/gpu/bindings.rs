@@ -1,10 +1,12 @@
 //! The bind group layout of the kernels, written out binding by binding as in
 //! `shaders/layout.wgsl` (group 0) and `shaders/test_kernels.wgsl` (bindings 20–22).
 
+use crate::features::UniformArrays;
+
 /// Binding of `frame` (FrameParams, read-only storage: see layout.wgsl for why not uniform).
 pub const FRAME: u32 = 0;
-/// Bindings 1..=7: the scene (bvh_nodes … light_picks), read-only storage (bvh_nodes may be a
-/// uniform buffer instead: `ExtraBindings::uniform_bvh`).
+/// Bindings 1..=7: the scene (bvh_nodes … light_picks), read-only storage (bvh_nodes, vertices
+/// and triangles may be uniform buffers instead: `ExtraBindings::uniform`), and TRIANGLE_LIGHTS.
 pub const SCENE_FIRST: u32 = 1;
 pub const SCENE_COUNT: u32 = 7;
 /// Bindings 8..=12: accum, accum_sq, counters, aov_light, aov_brdf (read-write storage).
@@ -23,8 +25,10 @@ pub const DEFERRED_DISPATCH: u32 = 19;
 pub const TEST_PARAMS: u32 = 20;
 pub const TEST_INPUT: u32 = 21;
 pub const TEST_OUTPUT: u32 = 22;
+/// The scene's `triangle_lights` (read-only storage), after the others.
+pub const TRIANGLE_LIGHTS: u32 = 23;
 /// Storage buffers a render kernel binds (scene + outputs): a device must allow this many per stage.
-pub const STORAGE_BUFFERS_NEEDED: u32 = 1 + SCENE_COUNT + OUTPUT_COUNT + TEXTURES_COUNT;
+pub const STORAGE_BUFFERS_NEEDED: u32 = 1 + SCENE_COUNT + 1 + OUTPUT_COUNT + TEXTURES_COUNT;
 
 fn entry(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
@@ -43,8 +47,8 @@ fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
 /// whether the BVH is a uniform buffer.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct ExtraBindings {
-    /// `bvh_nodes` (binding 1) is a uniform buffer (`KernelKey::uniform_bvh_nodes`).
-    pub uniform_bvh: bool,
+    /// Which of `bvh_nodes`, `vertices` and `triangles` (bindings 1-3) are uniform buffers.
+    pub uniform: UniformArrays,
     /// The texture module's bindings (13..=16).
     pub textures: bool,
     /// The wavefront kernels' deferred samples (17..=19).
@@ -55,14 +59,16 @@ pub struct ExtraBindings {
 
 /// Layout entries of a render or test kernel.
 pub fn layout_entries(extra: ExtraBindings) -> Vec<wgpu::BindGroupLayoutEntry> {
-    let ExtraBindings { uniform_bvh, textures: with_textures, deferred: with_deferred, test_io: with_test_io } = extra;
+    let ExtraBindings { uniform, textures: with_textures, deferred: with_deferred, test_io: with_test_io } = extra;
     let mut entries = vec![storage(FRAME, true)];
-    entries.push(if uniform_bvh {
-        entry(SCENE_FIRST, wgpu::BufferBindingType::Uniform)
-    } else {
-        storage(SCENE_FIRST, true)
-    });
-    entries.extend((SCENE_FIRST + 1..SCENE_FIRST + SCENE_COUNT).map(|b| storage(b, true)));
+    let uniform_lengths = [uniform.bvh_nodes, uniform.vertices, uniform.triangles];
+    entries.extend((SCENE_FIRST..SCENE_FIRST + SCENE_COUNT).map(|b| {
+        match uniform_lengths.get((b - SCENE_FIRST) as usize) {
+            Some(&n) if n > 0 => entry(b, wgpu::BufferBindingType::Uniform),
+            _ => storage(b, true),
+        }
+    }));
+    entries.push(storage(TRIANGLE_LIGHTS, true));
     entries.extend((OUTPUT_FIRST..OUTPUT_FIRST + OUTPUT_COUNT).map(|b| storage(b, false)));
     if with_textures {
         entries.extend((TEXTURES_FIRST..TEXTURES_FIRST + TEXTURES_COUNT).map(|b| storage(b, true)));

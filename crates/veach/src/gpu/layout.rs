@@ -103,7 +103,6 @@ pub struct IndexedTriangle {
     pub v1: u32,
     pub v2: u32,
     pub material: u32,
-    pub light: u32,
 }
 
 /// Octahedral encoding of a unit vector in two snorm16, as WGSL's `pack2x16snorm` packs them
@@ -294,7 +293,7 @@ pub fn rust_layouts() -> Vec<StructLayout> {
         }),
         layout!(BvhNode { left_min, left, left_max, right, right_min, _pad0, right_max, _pad1 }),
         layout!(Vertex { p, normal }),
-        layout!(IndexedTriangle { v0, v1, v2, material, light }),
+        layout!(IndexedTriangle { v0, v1, v2, material }),
         layout!(Material {
             base_color,
             metallic,

@@ -16,6 +16,8 @@ pub struct SceneArrays {
     pub vertices: Vec<layout::Vertex>,
     /// In BVH order.
     pub triangles: Vec<layout::IndexedTriangle>,
+    /// Each triangle's area light (an index into `lights`) or NO_LIGHT, in BVH order.
+    pub triangle_lights: Vec<u32>,
     pub materials: Vec<layout::Material>,
     pub lights: Vec<layout::Light>,
     pub emitter_tris: Vec<layout::EmitterTriangle>,
@@ -187,7 +189,7 @@ pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) ->
         (centre.to_array(), radius)
     };
     let with_uvs = features.textures();
-    let (vertices, vertex_uvs, triangles) = indexed_triangles(scene, bvh, &triangle_light, with_uvs);
+    let (vertices, vertex_uvs, triangles, triangle_lights) = indexed_triangles(scene, bvh, &triangle_light, with_uvs);
 
     let materials = scene
         .materials
@@ -214,6 +216,7 @@ pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) ->
         bvh_nodes: encode_bvh_nodes(&bvh.nodes),
         vertices,
         triangles,
+        triangle_lights,
         materials,
         lights,
         emitter_tris,
@@ -225,20 +228,23 @@ pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) ->
 
 /// The triangles in BVH order over shared vertices: one vertex for all the corners with the same
 /// position, shading normal (as encoded) and, with `with_uvs`, texture coordinates. A closed mesh
-/// has about half as many vertices as triangles, so a triangle costs 20 bytes plus about 8 of
+/// has about half as many vertices as triangles, so a triangle costs 20 bytes (16 and its light's
+/// index) plus about 8 of
 /// vertices instead of 96 bytes of its own corners (docs/performance.md, memory per triangle).
-/// Returns the vertices, their texture coordinates (empty without `with_uvs`) and the triangles.
+/// Returns the vertices, their texture coordinates (empty without `with_uvs`), the triangles and
+/// their lights.
 fn indexed_triangles(
     scene: &Scene,
     bvh: &Bvh,
     triangle_light: &[u32],
     with_uvs: bool,
-) -> (Vec<layout::Vertex>, Vec<[f32; 4]>, Vec<layout::IndexedTriangle>) {
+) -> (Vec<layout::Vertex>, Vec<[f32; 4]>, Vec<layout::IndexedTriangle>, Vec<u32>) {
     let mut index_of: HashMap<[u32; 8], u32, BuildHasherDefault<VertexKeyHasher>> = HashMap::default();
     index_of.reserve(bvh.order.len());
     let mut vertices = Vec::with_capacity(bvh.order.len() / 2 + 1);
     let mut vertex_uvs = Vec::new();
     let mut triangles = Vec::with_capacity(bvh.order.len().max(1));
+    let mut lights = Vec::with_capacity(bvh.order.len().max(1));
     for &t in &bvh.order {
         let tri = &scene.triangles[t as usize];
         let corner = |k: usize| {
@@ -259,23 +265,19 @@ fn indexed_triangles(
                 (vertices.len() - 1) as u32
             });
         }
-        triangles.push(layout::IndexedTriangle {
-            v0: v[0],
-            v1: v[1],
-            v2: v[2],
-            material: tri.material,
-            light: triangle_light[t as usize],
-        });
+        triangles.push(layout::IndexedTriangle { v0: v[0], v1: v[1], v2: v[2], material: tri.material });
+        lights.push(triangle_light[t as usize]);
     }
     if triangles.is_empty() {
         // Placeholder for an empty scene (see `build_bvh`): zero area, so it is never hit.
         vertices.push(layout::Vertex::default());
-        triangles.push(layout::IndexedTriangle { light: NO_LIGHT, ..Default::default() });
+        triangles.push(layout::IndexedTriangle::default());
+        lights.push(NO_LIGHT);
     }
     if with_uvs && vertex_uvs.is_empty() {
         vertex_uvs.push([0.0; 4]);
     }
-    (vertices, vertex_uvs, triangles)
+    (vertices, vertex_uvs, triangles, lights)
 }
 
 /// A multiply-rotate hash for vertex keys (FxHash's scheme): SipHash's resistance to chosen keys

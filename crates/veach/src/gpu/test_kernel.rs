@@ -43,7 +43,7 @@ impl<'a> TestKernel<'a> {
             "veach test kernels",
             shaders::test_kernel_source(),
             &[shaders::TEST_ENTRY_POINT],
-            bindings::ExtraBindings { uniform_bvh: false, textures: true, deferred: false, test_io: true },
+            bindings::ExtraBindings { uniform: Default::default(), textures: true, deferred: false, test_io: true },
             &[],
         )
         .map_err(Error::Gpu)?;
