@@ -483,6 +483,25 @@ fn band_pixel(gid: vec3u) -> BandPixel {
     return BandPixel(gid.x, y, y * frame.width + gid.x, inside);
 }
 
+// Mesa 22's llvmpipe (gallivm's loop limiter, LP_MAX_TGSI_LOOP_ITERATIONS in
+// lp_bld_ir_common.c) gives each invocation one budget of 65,535 loop iterations, shared by all
+// of its loops; once it is spent, every loop stops after its current iteration: traversals end
+// early, rays miss, and the sample is silently dark. Mesa 23 and later have no such limit. This
+// loop must run twice (its trip count is read at run time, so it is not unrolled); after a
+// camera sample it tells whether the budget held through it. A sample it did not is left out
+// and taken again by the next dispatch (`render` starts from the pixel's own count).
+fn loop_budget_held() -> bool {
+    let trips = max(frame.loop_check, 2u);
+    var i = 0u;
+    loop {
+        i += 1u;
+        if i >= trips {
+            break;
+        }
+    }
+    return i >= 2u;
+}
+
 @compute @workgroup_size(8, 8, 1)
 fn render(@builtin(global_invocation_id) gid: vec3u) {
     let px = band_pixel(gid);
@@ -500,11 +519,17 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
         sum_light = aov_light[pixel];
         sum_brdf = aov_brdf[pixel];
     }
-    for (var k = 0u; k < frame.sample_count; k++) {
-        var stream = sample_stream(pixel, frame.sample_start + k, frame.seed);
+    // From the pixel's own count of samples (sum.w), which trails the dispatch's first sample
+    // where a sample was left out before (loop_budget_held).
+    for (var k = u32(sum.w); k < frame.sample_start + frame.sample_count; k++) {
+        var stream = sample_stream(pixel, k, frame.seed);
         let ray = camera_ray(vec2u(px.x, px.y), sample_2d(&stream));
         var rays = 0u;
         let e = estimate_radiance(ray, &stream, &rays);
+        if !loop_budget_held() {
+            count.truncated += 1u;
+            break;
+        }
         let l = e.emitted + e.light + e.brdf;
         count.rays += rays;
         // A non-finite sample is counted and dropped (as a zero), never accumulated.

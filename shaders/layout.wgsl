@@ -72,7 +72,8 @@ struct FrameParams {
     emitter_radius: f32,
     // SAMPLER_*: where a camera sample's numbers come from (shaders/sampler.wgsl).
     sampler: u32,
-    _pad4: u32,
+    // At least 2 (the host sets 2): loop_budget_held's trip count, read at run time.
+    loop_check: u32,
     _pad5: u32,
     _pad6: u32,
 }
@@ -220,6 +221,8 @@ struct TestParams {
 struct PixelCounters {
     rays: u32,
     nonfinite: u32,
+    // Camera samples cut short by the driver's loop limit, left out and taken again.
+    truncated: u32,
 }
 
 // A read-only storage buffer, not a uniform: lavapipe (Mesa 22.3) folds uniform values into the
@@ -266,14 +269,16 @@ struct DeferredSample {
     // The sample plan's n (low 16 bits) and m (high 16 bits), and the rays traced so far.
     plan: u32,
     rays: u32,
-    _pad0: u32,
+    // The camera sample's index (the pixel's own count of samples when its round began).
+    sample: u32,
     _pad1: u32,
     _pad2: u32,
 }
 
-// A dispatch runs rounds of the wavefront kernels, one camera sample per pixel each: camera
-// sample frame.sample_start + round. `count` samples deferred by this round's first kernel;
-// prepare_direction_pass moves it to `pending` for the second, whose round is `direction_round`.
+// A dispatch runs rounds of the wavefront kernels, one camera sample per pixel each: the pixel's
+// next (its count of samples), until it has the dispatch's last. `count` samples deferred by
+// this round's first kernel; prepare_direction_pass moves it to `pending` for the second.
+// `round` and `direction_round` count the rounds.
 struct DeferredHeader {
     count: atomic<u32>,
     pending: u32,

@@ -22,7 +22,12 @@ fn render_light_pass(@builtin(global_invocation_id) gid: vec3u) {
         return;
     }
     let pixel = px.index;
-    var stream = sample_stream(pixel, frame.sample_start + deferred_header.round, frame.seed);
+    // The pixel's next sample (its own count, as in `render`), unless it has this dispatch's.
+    let sample = u32(accum[pixel].w);
+    if sample >= frame.sample_start + frame.sample_count {
+        return;
+    }
+    var stream = sample_stream(pixel, sample, frame.seed);
     let ray = camera_ray(vec2u(px.x, px.y), sample_2d(&stream));
     var rays = 1u;
     var e = Estimate(vec3f(0.0), vec3f(0.0), vec3f(0.0));
@@ -34,11 +39,19 @@ fn render_light_pass(@builtin(global_invocation_id) gid: vec3u) {
         }
         let plan = sample_plan(c);
         e.light = estimate_light_samples(c, plan, &stream, &rays);
-        if plan.m > 0u {
-            let slot = atomicAdd(&deferred_header.count, 1u);
-            deferred[slot] = DeferredSample(e.emitted, pixel, e.light, stream.dim, hit.tri, hit.b1, hit.b2, plan.n | (plan.m << 16u), rays, 0u, 0u, 0u);
+        if !loop_budget_held() {
+            counters[pixel].truncated += 1u;
             return;
         }
+        if plan.m > 0u {
+            let slot = atomicAdd(&deferred_header.count, 1u);
+            deferred[slot] = DeferredSample(e.emitted, pixel, e.light, stream.dim, hit.tri, hit.b1, hit.b2, plan.n | (plan.m << 16u), rays, sample, 0u, 0u);
+            return;
+        }
+    }
+    if !loop_budget_held() {
+        counters[pixel].truncated += 1u;
+        return;
     }
     add_sample(pixel, e, rays);
 }
@@ -90,7 +103,7 @@ fn render_direction_pass(@builtin(global_invocation_id) gid: vec3u) {
     // The camera ray again, from the start of the sample's stream.
     let x = q.pixel % frame.width;
     let y = q.pixel / frame.width;
-    var stream = sample_stream(q.pixel, frame.sample_start + deferred_header.direction_round, frame.seed);
+    var stream = sample_stream(q.pixel, q.sample, frame.seed);
     let ray = camera_ray(vec2u(x, y), sample_2d(&stream));
     let hit = Hit(0.0, q.b1, q.b2, q.tri, true);
     let c = shading_context(surface_at(hit, ray.dir), ray.dir);
@@ -99,5 +112,9 @@ fn render_direction_pass(@builtin(global_invocation_id) gid: vec3u) {
     stream.dim = q.stream_dim;
     var rays = q.rays;
     let brdf = estimate_direction_samples(c, plan, &stream, &rays);
+    if !loop_budget_held() {
+        counters[q.pixel].truncated += 1u;
+        return;
+    }
     add_sample(q.pixel, Estimate(q.emitted, q.light, brdf), rays);
 }

@@ -315,6 +315,43 @@ impl Accumulation {
         Ok(elapsed)
     }
 
+    /// Takes again the camera samples that Mesa 22's loop limit cut short (`loop_budget_held` in
+    /// shaders/integrator.wgsl left them out), until every pixel has `settings.spp`: each pixel
+    /// continues from its own count, so it ends with the same samples as without the limit.
+    /// Fails where one camera sample alone needs more loop iterations than the driver allows.
+    pub fn take_left_out_samples(&mut self) -> Result<()> {
+        let mut behind = u32::MAX;
+        loop {
+            let sum: Vec<[f32; 4]> = read_buffer(&self.gpu.device, &self.gpu.queue, &self.accum)?;
+            let fewest = sum.iter().map(|s| s[3] as u32).min().unwrap_or(self.settings.spp);
+            if fewest >= self.settings.spp {
+                return Ok(());
+            }
+            if fewest <= behind && behind != u32::MAX {
+                return Err(Error::Gpu(format!(
+                    "a camera sample needs more loop iterations than this driver allows in one \
+                     invocation (Mesa 22's lavapipe: 65,535); take fewer samples per camera sample \
+                     (now {}{} light + {} BRDF) or use Mesa 23 or later",
+                    self.settings.light_samples,
+                    if self.settings.light_selection == crate::render::LightSelection::Each
+                        && self.settings.strategy.samples_lights()
+                    {
+                        " per light"
+                    } else {
+                        ""
+                    },
+                    self.settings.brdf_samples,
+                )));
+            }
+            behind = fewest;
+            let (row_start, sample_start) = (self.row_start, self.sample_start);
+            self.row_start = 0;
+            self.sample_start = fewest;
+            self.submit(self.settings.height, self.settings.spp - fewest, true)?;
+            (self.row_start, self.sample_start) = (row_start, sample_start);
+        }
+    }
+
     /// Reads the image accumulated so far back to the host.
     pub fn read(&self) -> Result<RenderOutput> {
         let (device, queue) = (&self.gpu.device, &self.gpu.queue);
@@ -337,6 +374,7 @@ impl Accumulation {
             contributions,
             rays: counts.iter().map(|c| c.rays as u64).sum(),
             nonfinite_samples: counts.iter().map(|c| c.nonfinite as u64).sum(),
+            truncated_samples: counts.iter().map(|c| c.truncated as u64).sum(),
             render_time: self.render_time,
             gpu_time: self.timer.is_some().then_some(self.gpu_time),
             kernel: self.key,

@@ -241,6 +241,9 @@ pub struct RenderOutput {
     pub contributions: Option<Contributions>,
     pub rays: u64,
     pub nonfinite_samples: u64,
+    /// Camera samples that the driver's loop limit cut short, left out and taken again
+    /// (Mesa 22's lavapipe; `Accumulation::take_left_out_samples`).
+    pub truncated_samples: u64,
     /// Wall-clock time of the dispatches: submit until the GPU is done.
     pub render_time: Duration,
     /// The dispatches' time by GPU timestamps, where the adapter has timestamp queries.
@@ -648,6 +651,7 @@ impl Renderer {
             },
             write_aovs: s.write_aovs as u32,
             hide_emitters: s.hide_emitters as u32,
+            loop_check: 2,
             ..Default::default()
         }
     }
@@ -674,6 +678,9 @@ impl Renderer {
             if !progress(p) {
                 break;
             }
+        }
+        if acc.is_complete() {
+            acc.take_left_out_samples()?;
         }
         let mut out = acc.read()?;
         // Running out of time is the budget, not an interruption.

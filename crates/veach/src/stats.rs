@@ -21,6 +21,8 @@ pub struct RenderStats {
     pub rays: u64,
     pub rays_per_second: f64,
     pub nonfinite_samples_dropped: u64,
+    /// Camera samples cut short by the driver's loop limit (Mesa 22's lavapipe) and taken again.
+    pub truncated_samples_retaken: u64,
     pub dispatches: u32,
     pub interrupted: bool,
 }
@@ -133,6 +135,7 @@ pub fn render_stats(
         rays: out.rays,
         rays_per_second: if render > 0.0 { out.rays as f64 / render } else { 0.0 },
         nonfinite_samples_dropped: out.nonfinite_samples,
+        truncated_samples_retaken: out.truncated_samples,
         dispatches: out.dispatches,
         interrupted: out.interrupted,
     }

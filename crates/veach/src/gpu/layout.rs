@@ -72,7 +72,10 @@ pub struct FrameParams {
     pub emitter_centre: [f32; 3],
     pub emitter_radius: f32,
     pub sampler: u32,
-    pub _pad4: [u32; 3],
+    /// At least 2: the trip count of `loop_budget_held` (integrator.wgsl), read at run time so
+    /// that the compiler cannot unroll it.
+    pub loop_check: u32,
+    pub _pad4: [u32; 2],
 }
 
 #[repr(C)]
@@ -223,6 +226,8 @@ pub struct TestParams {
 pub struct PixelCounters {
     pub rays: u32,
     pub nonfinite: u32,
+    /// Camera samples cut short by the driver's loop limit and taken again (`loop_budget_held`).
+    pub truncated: u32,
 }
 
 /// A camera sample whose direction samples wait for the wavefront's second kernel
@@ -239,7 +244,8 @@ pub struct DeferredSample {
     pub b2: f32,
     pub plan: u32,
     pub rays: u32,
-    pub _pad: [u32; 3],
+    pub sample: u32,
+    pub _pad: [u32; 2],
 }
 
 /// The wavefront's rounds: samples deferred, and which camera sample each kernel takes
@@ -289,7 +295,8 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             light_sampling,
             emitter_centre,
             emitter_radius,
-            sampler
+            sampler,
+            loop_check
         }),
         layout!(BvhNode { left_min, left, left_max, right, right_min, _pad0, right_max, _pad1 }),
         layout!(Vertex { p, normal }),
@@ -329,8 +336,8 @@ pub fn rust_layouts() -> Vec<StructLayout> {
         layout!(EmitterTriangle { p0, alias_prob, e1, alias_index, e2, light }),
         layout!(LightPick { pdf, alias_prob, alias_index }),
         layout!(TestParams { routine, count, seed, light_index, wo, point, material }),
-        layout!(PixelCounters { rays, nonfinite }),
-        layout!(DeferredSample { emitted, pixel, light, stream_dim, tri, b1, b2, plan, rays }),
+        layout!(PixelCounters { rays, nonfinite, truncated }),
+        layout!(DeferredSample { emitted, pixel, light, stream_dim, tri, b1, b2, plan, rays, sample }),
         layout!(DeferredHeader { count, pending, round, direction_round }),
     ]
 }
