@@ -229,9 +229,9 @@ struct PixelCounters {
 // shader and compiles a new variant whenever they change, as row_start and sample_start do on
 // every dispatch; that cost ~12 ms and 0.7-7.6 MiB of never-freed memory per dispatch.
 @group(0) @binding(0) var<storage, read> frame: FrameParams;
-// On CPU adapters a small scene's BVH, vertices and triangles are uniform arrays instead
-// (shaders.rs rewrites these three lines; render.rs, BvhMemory): their contents never change
-// during a render, so lavapipe compiles the kernel once.
+// On CPU adapters each of bindings 1-7 that fits in 64 KiB is a uniform array instead
+// (shaders.rs rewrites its line; render.rs, BvhMemory): their contents never change during a
+// render, so lavapipe compiles the kernel once.
 @group(0) @binding(1) var<storage, read> bvh_nodes: array<BvhNode>;
 @group(0) @binding(2) var<storage, read> vertices: array<Vertex>;
 @group(0) @binding(3) var<storage, read> triangles: array<IndexedTriangle>;

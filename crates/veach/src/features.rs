@@ -93,7 +93,7 @@ impl SceneFeatures {
 }
 
 /// The scene arrays a kernel reads from uniform buffers instead of storage buffers, each as a
-/// uniform array of this many elements (0: storage). On CPU adapters, where a scene's array fits
+/// uniform array of this many elements (0: storage), in binding order. On CPU adapters, where a scene's array fits
 /// in 64 KiB (`GpuScene`, `BvhMemory`): lavapipe gathers a uniform array's elements where it
 /// loads a storage buffer's lane by lane (docs/performance.md, "Small BVHs in a uniform buffer",
 /// "Small scenes' triangles in uniform buffers").
@@ -102,6 +102,25 @@ pub struct UniformArrays {
     pub bvh_nodes: u32,
     pub vertices: u32,
     pub triangles: u32,
+    pub materials: u32,
+    pub lights: u32,
+    pub emitter_tris: u32,
+    pub light_picks: u32,
+}
+
+impl UniformArrays {
+    /// The lengths in binding order (bindings 1 to 7, `gpu::bindings`).
+    pub fn lengths(&self) -> [u32; 7] {
+        [
+            self.bvh_nodes,
+            self.vertices,
+            self.triangles,
+            self.materials,
+            self.lights,
+            self.emitter_tris,
+            self.light_picks,
+        ]
+    }
 }
 
 /// The override constants of one kernel. `KernelKey::generic()` is the kernel for everything.

@@ -334,8 +334,8 @@ pub struct SceneUploadStats {
 pub struct GpuScene {
     /// bvh_nodes … light_picks (bindings 1-7), then triangle_lights.
     pub(crate) buffers: Vec<wgpu::Buffer>,
-    /// The arrays among the first three that are uniform buffers too, with the length they are
-    /// padded to (see `BvhMemory`).
+    /// The arrays that are uniform buffers too, with the length they are padded to (see
+    /// `BvhMemory`).
     pub(crate) uniform: UniformArrays,
     /// vertex_uvs, texture_infos, texels, emitter_source: only for scenes with textures.
     pub(crate) texture_buffers: Option<[wgpu::Buffer; 4]>,
@@ -387,15 +387,17 @@ fn scene_buffer<T: bytemuck::Pod + Default>(
     })
 }
 
-/// Where the kernels read the BVH, vertices and triangles from.
+/// Where the kernels read the scene's arrays (BVH, vertices, triangles, materials, lights,
+/// emitter triangles, light picks) from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BvhMemory {
-    /// Uniform buffers where each array fits in one (the BVH with larger leaves if that makes it
-    /// fit) and the adapter is a CPU (lavapipe); storage buffers otherwise. lavapipe gathers a
+    /// A uniform buffer for each array that fits in one (the BVH with larger leaves if that makes
+    /// it fit) where the adapter is a CPU (lavapipe); storage buffers otherwise. lavapipe gathers a
     /// uniform array's elements with vector loads where it loads a storage buffer's lane by lane:
     /// the BVH made the Cornell box 0.86x the render time, the Veach scene 0.84-0.90x, the
-    /// vertices and triangles then 0.94x and 0.87x (docs/performance.md, "Small BVHs in a uniform
-    /// buffer", "Small scenes' triangles in uniform buffers"). GPUs keep storage: their constant caches serialise
+    /// vertices and triangles then 0.94x and 0.87x, the other four 0.93-0.98x on Mesa 22.3
+    /// (docs/performance.md, "Small BVHs in a uniform buffer", "Small scenes' triangles in
+    /// uniform buffers"). GPUs keep storage: their constant caches serialise
     /// loads from different addresses within a warp (CUDA C++ Programming Guide, "Constant
     /// Memory"), which is what a traversal does; not measured here.
     Auto,
@@ -404,7 +406,7 @@ pub enum BvhMemory {
 }
 
 /// The largest uniform array: 64 KiB, the common `maxUniformBufferRange` (1024 BVH nodes, 4096
-/// vertices or triangles).
+/// vertices, triangles or light picks, 682 lights, 1365 emitter triangles).
 const UNIFORM_ARRAY_MAX_BYTES: u64 = 64 << 10;
 
 /// The length of `array` as a uniform array where it has at most `capacity` elements (padded to
@@ -503,6 +505,13 @@ impl Renderer {
             bvh_nodes: pad_for_uniform(&mut arrays.bvh_nodes, capacity),
             vertices: pad_for_uniform(&mut arrays.vertices, self.uniform_capacity::<layout::Vertex>(memory)),
             triangles: pad_for_uniform(&mut arrays.triangles, self.uniform_capacity::<layout::IndexedTriangle>(memory)),
+            materials: pad_for_uniform(&mut arrays.materials, self.uniform_capacity::<layout::Material>(memory)),
+            lights: pad_for_uniform(&mut arrays.lights, self.uniform_capacity::<layout::Light>(memory)),
+            emitter_tris: pad_for_uniform(
+                &mut arrays.emitter_tris,
+                self.uniform_capacity::<layout::EmitterTriangle>(memory),
+            ),
+            light_picks: pad_for_uniform(&mut arrays.light_picks, self.uniform_capacity::<layout::LightPick>(memory)),
         };
         let device = &self.gpu.device;
         let max_binding = device.limits().max_storage_buffer_binding_size;
@@ -526,10 +535,10 @@ impl Renderer {
             scene_buffer(device, "bvh_nodes", &arrays.bvh_nodes, also_uniform(uniform.bvh_nodes)),
             scene_buffer(device, "vertices", &arrays.vertices, also_uniform(uniform.vertices)),
             scene_buffer(device, "triangles", &arrays.triangles, also_uniform(uniform.triangles)),
-            storage_buffer(device, "materials", &arrays.materials),
-            storage_buffer(device, "lights", &arrays.lights),
-            storage_buffer(device, "emitter_tris", &arrays.emitter_tris),
-            storage_buffer(device, "light_picks", &arrays.light_picks),
+            scene_buffer(device, "materials", &arrays.materials, also_uniform(uniform.materials)),
+            scene_buffer(device, "lights", &arrays.lights, also_uniform(uniform.lights)),
+            scene_buffer(device, "emitter_tris", &arrays.emitter_tris, also_uniform(uniform.emitter_tris)),
+            scene_buffer(device, "light_picks", &arrays.light_picks, also_uniform(uniform.light_picks)),
             storage_buffer(device, "triangle_lights", &arrays.triangle_lights),
         ];
         // Scenes without textures upload none: their kernels do not bind any.

@@ -36,8 +36,15 @@ pub fn test_kernel_source() -> String {
 }
 
 /// The arrays that may be uniform, as layout.wgsl declares them: name and element type.
-const UNIFORM_CANDIDATES: [(&str, &str); 3] =
-    [("bvh_nodes", "BvhNode"), ("vertices", "Vertex"), ("triangles", "IndexedTriangle")];
+const UNIFORM_CANDIDATES: [(&str, &str); 7] = [
+    ("bvh_nodes", "BvhNode"),
+    ("vertices", "Vertex"),
+    ("triangles", "IndexedTriangle"),
+    ("materials", "Material"),
+    ("lights", "Light"),
+    ("emitter_tris", "EmitterTriangle"),
+    ("light_picks", "LightPick"),
+];
 
 /// Name of the compute entry point in `integrator.wgsl`.
 pub const RENDER_ENTRY_POINT: &str = "render";
@@ -59,7 +66,7 @@ pub fn render_kernel_source(textures: bool, uniform: UniformArrays) -> String {
         source.push_str(text);
         source.push('\n');
     }
-    let lengths = [uniform.bvh_nodes, uniform.vertices, uniform.triangles];
+    let lengths = uniform.lengths();
     for ((name, element), n) in UNIFORM_CANDIDATES.into_iter().zip(lengths).filter(|(_, n)| *n > 0) {
         let storage = format!("var<storage, read> {name}: array<{element}>;");
         assert!(source.contains(&storage), "layout.wgsl declares {name} otherwise");
@@ -83,7 +90,15 @@ mod tests {
 
     #[test]
     fn all_wgsl_validates_with_naga() {
-        let small = UniformArrays { bvh_nodes: 1024, vertices: 4096, triangles: 4096 };
+        let small = UniformArrays {
+            bvh_nodes: 1024,
+            vertices: 4096,
+            triangles: 4096,
+            materials: 256,
+            lights: 512,
+            emitter_tris: 1024,
+            light_picks: 4096,
+        };
         for (textures, uniform) in [(false, UniformArrays::default()), (true, UniformArrays::default()), (false, small)]
         {
             let source = render_kernel_source(textures, uniform);

@@ -5,8 +5,8 @@ use crate::features::UniformArrays;
 
 /// Binding of `frame` (FrameParams, read-only storage: see layout.wgsl for why not uniform).
 pub const FRAME: u32 = 0;
-/// Bindings 1..=7: the scene (bvh_nodes … light_picks), read-only storage (bvh_nodes, vertices
-/// and triangles may be uniform buffers instead: `ExtraBindings::uniform`), and TRIANGLE_LIGHTS.
+/// Bindings 1..=7: the scene (bvh_nodes … light_picks), read-only storage (or uniform buffers
+/// where they fit: `ExtraBindings::uniform`), and TRIANGLE_LIGHTS.
 pub const SCENE_FIRST: u32 = 1;
 pub const SCENE_COUNT: u32 = 7;
 /// Bindings 8..=12: accum, accum_sq, counters, aov_light, aov_brdf (read-write storage).
@@ -47,7 +47,7 @@ fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
 /// whether the BVH is a uniform buffer.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct ExtraBindings {
-    /// Which of `bvh_nodes`, `vertices` and `triangles` (bindings 1-3) are uniform buffers.
+    /// Which of the scene arrays (bindings 1-7) are uniform buffers.
     pub uniform: UniformArrays,
     /// The texture module's bindings (13..=16).
     pub textures: bool,
@@ -61,7 +61,7 @@ pub struct ExtraBindings {
 pub fn layout_entries(extra: ExtraBindings) -> Vec<wgpu::BindGroupLayoutEntry> {
     let ExtraBindings { uniform, textures: with_textures, deferred: with_deferred, test_io: with_test_io } = extra;
     let mut entries = vec![storage(FRAME, true)];
-    let uniform_lengths = [uniform.bvh_nodes, uniform.vertices, uniform.triangles];
+    let uniform_lengths = uniform.lengths();
     entries.extend((SCENE_FIRST..SCENE_FIRST + SCENE_COUNT).map(|b| {
         match uniform_lengths.get((b - SCENE_FIRST) as usize) {
             Some(&n) if n > 0 => entry(b, wgpu::BufferBindingType::Uniform),
