@@ -158,8 +158,8 @@ enum SelectionArg {
     Uniform,
     /// One light per sample, chosen by emitted power
     Power,
-    /// One light per sample, chosen per shading point: half by power, half by power times the
-    /// BSDF towards the light (by power beyond 16 lights)
+    /// One light per sample, chosen per shading point: a quarter by power, three quarters by
+    /// power times the BSDF towards the light (by power beyond 16 lights)
     Bsdf,
 }
 

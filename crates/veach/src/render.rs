@@ -42,9 +42,10 @@ pub enum LightSelection {
     Uniform,
     /// One light per sample, chosen with probability proportional to its power.
     Power,
-    /// One light per sample, chosen per shading point: half by power, half by power times the
-    /// BSDF and cosine towards the light over its squared distance (`prepare_point_selection`
-    /// in shaders/lights.wgsl). By power where a scene has more than 16 lights.
+    /// One light per sample, chosen per shading point: a quarter by power, three quarters by
+    /// power times the BSDF and cosine towards the light over its squared distance
+    /// (`prepare_point_selection` in shaders/lights.wgsl). By power where a scene has more than
+    /// 16 lights.
     Bsdf,
 }
 
