@@ -36,7 +36,7 @@ bugs=(
   "shaders/textures.wgsl|return select(v, vec4f(srgb_to_linear(v.rgb), v.a), srgb);|return v;|textures|lookups|sRGB textures not decoded"
   "shaders/lights.wgsl|max(b + sqrt(max(h_sq, 0.0)), 0.0)|max(b, 0.0)|strategies|cornell_box|direction samples clipped at the light's centre, not its far side"
   "shaders/layout.wgsl|let t = max(-n.z, 0.0);|let t = 0.0;|sampling|encoded_normals|octahedral decoding without the lower hemisphere's fold"
-  "shaders/wavefront.wgsl|sample_stream(q.pixel, frame.sample_start + deferred_header.direction_round, frame.seed)|sample_stream(q.pixel, frame.sample_start, frame.seed)|specialise|wavefront|direction kernel re-traces the first round's camera ray"
+  "shaders/wavefront.wgsl|sample_stream(q.pixel, q.sample, frame.seed)|sample_stream(q.pixel, frame.sample_start, frame.seed)|specialise|wavefront|direction kernel re-traces the first round's camera ray"
   "shaders/traverse.wgsl|let int_scale = 32.0;|let int_scale = 256.0;|stress|far_from_the_origin|ray offset of 256 ULPs (2 units at 1e5)"
   "shaders/integrator.wgsl|    return i >= 2u;|    return i >= 1u;|stress|cut_short|loop-limit canary that never fires: Mesa 22 truncates samples silently (passes on Mesa 23+)"
   "shaders/lights.wgsl|return point_selection[min(index, MAX_POINT_SELECTION_LIGHTS - 1u)];|return light_picks[index].pdf;|analytic|area_and_point|per-point light choice weighted by the power pdf it did not sample from"
