@@ -39,6 +39,7 @@ bugs=(
   "shaders/wavefront.wgsl|sample_stream(q.pixel, q.sample, frame.seed)|sample_stream(q.pixel, frame.sample_start, frame.seed)|specialise|wavefront|direction kernel re-traces the first round's camera ray"
   "shaders/traverse.wgsl|let int_scale = 32.0;|let int_scale = 256.0;|stress|far_from_the_origin|ray offset of 256 ULPs (2 units at 1e5)"
   "shaders/integrator.wgsl|    return i >= 2u;|    return i >= 1u;|stress|cut_short|loop-limit canary that never fires: Mesa 22 truncates samples silently (passes on Mesa 23+)"
+  "shaders/lights.wgsl|const POWER_SHARE: f32 = 0.25;|const POWER_SHARE: f32 = 0.0;|strategies|per_point|per-point light choice without its power share: a light whose guess is zero is never chosen"
   "shaders/lights.wgsl|return point_selection[min(index, MAX_POINT_SELECTION_LIGHTS - 1u)];|return light_picks[index].pdf;|analytic|area_and_point|per-point light choice weighted by the power pdf it did not sample from"
 )
 

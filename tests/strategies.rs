@@ -411,3 +411,56 @@ fn finite_variance_strategies_agree_on_the_stiff_stress_scenes() {
         check_scene(&stress_scene_file(scene), 24, 24, 6, reference, &configs);
     }
 }
+
+/// Lights chosen per shading point (`--light-selection bsdf`) where one light's guess is zero
+/// at every floor point while part of it lights the floor: a wall light half sunk into the floor,
+/// whose bounding-sphere centre lies in the floor's plane (cos = 0 there), beside a small light
+/// above. Only the power share of the choice keeps the wall light selectable; light sampling
+/// alone (no BRDF samples, whose MIS weight would make up for a light never chosen) must match
+/// the reference.
+#[test]
+fn per_point_light_choice_keeps_lights_whose_centre_is_below_the_horizon() {
+    let mut g = GltfBuilder::new();
+    let floor = g.material(&MaterialDesc::lambert("floor", Vec3::splat(0.6)));
+    let wall = g.material(&MaterialDesc::emitter("wall light", Vec3::new(3.0, 3.0, 3.0)));
+    let top = g.material(&MaterialDesc::emitter("top light", Vec3::new(20.0, 20.0, 20.0)));
+    let q = MeshData::quad(
+        Vec3::new(-2., 0., -2.),
+        Vec3::new(2., 0., -2.),
+        Vec3::new(2., 0., 2.),
+        Vec3::new(-2., 0., 2.),
+        Vec3::Y,
+    );
+    g.add_mesh("floor", &q, floor, Mat4::IDENTITY);
+    let half_sunk = MeshData::quad(
+        Vec3::new(-0.8, -0.6, -1.0),
+        Vec3::new(0.8, -0.6, -1.0),
+        Vec3::new(0.8, 0.6, -1.0),
+        Vec3::new(-0.8, 0.6, -1.0),
+        Vec3::Z,
+    );
+    g.add_mesh("wall light", &half_sunk, wall, Mat4::IDENTITY);
+    let above = MeshData::quad(
+        Vec3::new(-0.2, 1.5, 0.2),
+        Vec3::new(0.2, 1.5, 0.2),
+        Vec3::new(0.2, 1.5, 0.6),
+        Vec3::new(-0.2, 1.5, 0.6),
+        Vec3::NEG_Y,
+    );
+    g.add_mesh("top light", &above, top, Mat4::IDENTITY);
+    g.camera("camera", Vec3::new(0.0, 1.2, 2.4), Vec3::new(0.0, 0.0, -0.2), 50.0);
+    let path = output_dir("scenes").join("half-sunk-light.gltf");
+    g.write(&path).unwrap();
+    let bsdf = LightSelection::Bsdf;
+    check_scene(
+        path.to_str().unwrap(),
+        24,
+        24,
+        6,
+        config("reference", Strategy::Mis, 256, 8, 8, Each, Balance),
+        &[
+            config("light-bsdf", Strategy::Light, 64, 8, 0, bsdf, Balance),
+            config("mis-bsdf", Strategy::Mis, 64, 4, 4, bsdf, PowerHeuristic),
+        ],
+    );
+}
