@@ -153,6 +153,17 @@ fn loop_limited() -> bool {
     veach::features::AutoExecution::for_adapter(info) == veach::features::AutoExecution::WavefrontWhereMasked
 }
 
+/// The light-touching-the-floor stress scene on the GPU, with its camera.
+fn touching_light_on_gpu() -> (veach::GpuScene, veach::scene::Camera) {
+    let scene = stress("touching-light");
+    let camera = scene.camera(None).unwrap();
+    (upload(&scene), camera)
+}
+
+fn eight_by_eight() -> RenderSettings {
+    RenderSettings { width: 8, height: 8, ..Default::default() }
+}
+
 /// Many BRDF samples per camera sample and many camera samples per dispatch: on Mesa 22's
 /// lavapipe the megakernel's invocations run out of loop iterations, traversals stop early and
 /// the image came out dark by up to a third (a floor point under a wall light: 0.207 against a
@@ -161,12 +172,8 @@ fn loop_limited() -> bool {
 /// on every driver; and where the limit exists the test shows the path was taken.
 #[test]
 fn samples_cut_short_by_a_loop_limit_are_taken_again() {
-    let scene = stress("touching-light");
-    let camera = scene.camera(None).unwrap();
-    let gpu_scene = upload(&scene);
+    let (gpu_scene, camera) = touching_light_on_gpu();
     let s = RenderSettings {
-        width: 8,
-        height: 8,
         spp: 16,
         strategy: Strategy::Brdf,
         brdf_samples: 1024,
@@ -176,7 +183,7 @@ fn samples_cut_short_by_a_loop_limit_are_taken_again() {
         // One dispatch of every camera sample, so that one invocation takes all 16.
         dispatch_target: std::time::Duration::from_secs(60),
         execution: veach::Execution::Megakernel,
-        ..Default::default()
+        ..eight_by_eight()
     };
     let mega = render(&gpu_scene, &s, &camera);
     let wave = render(&gpu_scene, &RenderSettings { execution: veach::Execution::Wavefront, ..s.clone() }, &camera);
@@ -189,17 +196,13 @@ fn samples_cut_short_by_a_loop_limit_are_taken_again() {
 /// at all there: the render fails with a message, instead of returning a dark image.
 #[test]
 fn a_camera_sample_over_the_loop_limit_is_an_error_not_a_dark_image() {
-    let scene = stress("touching-light");
-    let camera = scene.camera(None).unwrap();
-    let gpu_scene = upload(&scene);
+    let (gpu_scene, camera) = touching_light_on_gpu();
     let s = RenderSettings {
-        width: 8,
-        height: 8,
         spp: 1,
         strategy: Strategy::Uniform,
         brdf_samples: 70_000,
         execution: veach::Execution::Megakernel,
-        ..Default::default()
+        ..eight_by_eight()
     };
     let result = renderer().render(&gpu_scene, &s, &camera, &mut |_| true);
     if loop_limited() {
