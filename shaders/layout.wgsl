@@ -278,12 +278,11 @@ struct DeferredSample {
 // A dispatch runs rounds of the wavefront kernels, one camera sample per pixel each: the pixel's
 // next (its count of samples), until it has the dispatch's last. `count` samples deferred by
 // this round's first kernel; prepare_direction_pass moves it to `pending` for the second.
-// `round` and `direction_round` count the rounds.
 struct DeferredHeader {
     count: atomic<u32>,
     pending: u32,
-    round: u32,
-    direction_round: u32,
+    _pad0: u32,
+    _pad1: u32,
 }
 
 @group(0) @binding(17) var<storage, read_write> deferred: array<DeferredSample>;

@@ -63,8 +63,6 @@ const DEFERRED_WORKGROUP: u32 = 64u;
 fn prepare_direction_pass() {
     let count = atomicExchange(&deferred_header.count, 0u);
     deferred_header.pending = count;
-    deferred_header.direction_round = deferred_header.round;
-    deferred_header.round += 1u;
     deferred_dispatch[0] = (count + DEFERRED_WORKGROUP - 1u) / DEFERRED_WORKGROUP;
     deferred_dispatch[1] = 1u;
     deferred_dispatch[2] = 1u;

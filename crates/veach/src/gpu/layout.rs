@@ -248,15 +248,14 @@ pub struct DeferredSample {
     pub _pad: [u32; 2],
 }
 
-/// The wavefront's rounds: samples deferred, and which camera sample each kernel takes
-/// (shaders/layout.wgsl); zeroed before each dispatch.
+/// The wavefront's rounds: samples deferred by one, waiting for the next (shaders/layout.wgsl);
+/// zeroed before each dispatch.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct DeferredHeader {
     pub count: u32,
     pub pending: u32,
-    pub round: u32,
-    pub direction_round: u32,
+    pub _pad: [u32; 2],
 }
 
 /// Name, size and (member, offset) list of a struct.
@@ -338,6 +337,6 @@ pub fn rust_layouts() -> Vec<StructLayout> {
         layout!(TestParams { routine, count, seed, light_index, wo, point, material }),
         layout!(PixelCounters { rays, nonfinite, truncated }),
         layout!(DeferredSample { emitted, pixel, light, stream_dim, tri, b1, b2, plan, rays, sample }),
-        layout!(DeferredHeader { count, pending, round, direction_round }),
+        layout!(DeferredHeader { count, pending }),
     ]
 }
