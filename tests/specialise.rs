@@ -8,6 +8,7 @@ use glam::{Mat4, Vec3};
 use std::time::Duration;
 use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData, Punctual};
 use veach::features::KernelKey;
+use veach::gpu::baked_triangles::BAKED_TRIANGLES_MAX;
 use veach::{Execution, LightSelection, RenderSettings, Strategy};
 
 fn point_lit_plane() -> veach::Scene {
@@ -41,7 +42,9 @@ fn scenes() -> [(&'static str, veach::Scene); 4] {
 /// The specialised kernels only drop code behind constant-false conditions (features the scene
 /// lacks, other strategies, contribution images not asked for) and draw the same random numbers,
 /// so their images are identical, bit for bit, to the generic kernel's. On a CPU adapter they
-/// also read these small scenes' BVHs from a uniform buffer, the generic kernel from storage.
+/// also read these small scenes' BVHs from a uniform buffer, the generic kernel from storage, and
+/// the scenes of at most `BAKED_TRIANGLES_MAX` triangles (all but the Veach scene) have their
+/// triangles compiled into the kernel (shaders/traverse_baked.wgsl), the generic kernel a BVH.
 #[test]
 fn specialised_kernels_render_the_generic_kernels_image() {
     let cpu = renderer().gpu.adapter_info.device_type == wgpu::DeviceType::Cpu;
@@ -71,6 +74,10 @@ fn specialised_kernels_render_the_generic_kernels_image() {
                 let uniform = special.kernel.uniform;
                 let all_uniform = uniform.bvh_nodes > 0 && uniform.vertices > 0 && uniform.triangles > 0;
                 assert_eq!(all_uniform, cpu, "{name}: scene memory {uniform:?}");
+                let baked = special.kernel.baked.as_ref().map(|b| b.len());
+                let small = scene.triangles.len() <= BAKED_TRIANGLES_MAX;
+                assert_eq!(baked, (cpu && small).then_some(scene.triangles.len()), "{name}: baked triangles");
+                assert!(generic.kernel.baked.is_none());
                 assert_eq!(
                     special.sum, generic.sum,
                     "{name} {strategy:?} {light_selection:?} aovs {write_aovs}: images differ"
@@ -141,6 +148,52 @@ fn wavefront_kernels_render_the_megakernels_image() {
                 }
             }
         }
+    }
+}
+
+/// The stress scenes small enough to be compiled into the kernel (coordinates near f32's limits,
+/// a box 10^5 away, degenerate triangles, a camera inside a box, lights touching and grazing
+/// surfaces) render the image their BVH renders, bit for bit: each ray meets the same triangles
+/// in the same watertight test, only in another order (ties would pick another triangle at the
+/// same distance; none of these scenes has one). MIS 1 + 1, so that camera, shadow and BRDF rays
+/// all go through both traversals.
+#[test]
+fn triangles_compiled_into_the_kernel_render_the_bvhs_image() {
+    let cpu = renderer().gpu.adapter_info.device_type == wgpu::DeviceType::Cpu;
+    let mut baked_scenes = 0;
+    for &name in veach::assets::stress::STRESS_SCENES {
+        let scene = load(&veach::assets::stress::stress_scene(name).unwrap(), &format!("baked-{name}"));
+        if scene.triangles.len() > BAKED_TRIANGLES_MAX {
+            continue;
+        }
+        let camera = scene.camera(None).unwrap();
+        let settings = RenderSettings {
+            width: 48,
+            height: 32,
+            spp: 4,
+            strategy: Strategy::Mis,
+            light_samples: 1,
+            brdf_samples: 1,
+            seed: 3,
+            ..Default::default()
+        };
+        let baked = render(&upload(&scene), &settings, &camera);
+        let bvh_scene = renderer().upload_scene_with(&scene, veach::render::BvhMemory::Storage).unwrap();
+        let bvh = render(&bvh_scene, &settings, &camera);
+        assert_eq!(baked.kernel.baked.is_some(), cpu, "{name}");
+        assert!(bvh.kernel.baked.is_none(), "{name}");
+        baked_scenes += baked.kernel.baked.is_some() as u32;
+        if baked.sum != bvh.sum {
+            let dir = output_dir("baked-triangles");
+            for (out, kind) in [(&baked, "baked"), (&bvh, "bvh")] {
+                let path = dir.join(format!("{name}-{kind}.exr"));
+                veach::image_io::write_image(&path, out.width, out.height, &out.mean(), 0.0).unwrap();
+            }
+            panic!("{name}: the baked triangles' image differs from the BVH's (both in {})", dir.display());
+        }
+    }
+    if cpu {
+        assert!(baked_scenes >= 5, "only {baked_scenes} stress scenes were baked");
     }
 }
 

@@ -593,7 +593,11 @@ fn render(args: RenderArgs) -> Result<()> {
     say(format!(
         "scene features: {}; kernel: {}{}",
         gpu_scene.features.describe(),
-        if settings.specialise { "specialised" } else { "generic" },
+        match (settings.specialise, gpu_scene.baked_triangles()) {
+            (false, _) => "generic".to_string(),
+            (true, 0) => "specialised".to_string(),
+            (true, n) => format!("specialised, {n} triangles compiled in"),
+        },
         if veach::features::KernelKey::for_render(&gpu_scene.features, &settings, renderer.gpu.auto_execution())
             .wavefront
         {

@@ -501,7 +501,11 @@ impl ViewerApp {
             }
         });
         ui.label(format!("scene: {}", self.session.loaded.path.display()));
-        ui.label(format!("features: {}", self.session.loaded.gpu.features.describe()));
+        let baked = match self.session.loaded.gpu.baked_triangles() {
+            0 => String::new(),
+            n => format!(" · {n} triangles compiled into the kernel"),
+        };
+        ui.label(format!("features: {}{baked}", self.session.loaded.gpu.features.describe()));
         let shape = match &self.current {
             Some((s, _))
                 if veach::features::KernelKey::for_render(

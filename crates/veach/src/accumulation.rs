@@ -139,6 +139,7 @@ impl Accumulation {
         if settings.specialise {
             // The scene's small arrays are also uniform buffers where that pays (`upload_scene`).
             key.uniform = scene.uniform;
+            key.baked = scene.baked.clone();
         }
         // The deferred samples of one dispatch: a band of rows, each pixel once, within the
         // binding size and the direction kernel's one-dimensional indirect dispatch.
@@ -146,7 +147,7 @@ impl Accumulation {
             .min(max_binding / std::mem::size_of::<DeferredSample>() as u64)
             .min(device.limits().max_compute_workgroups_per_dimension as u64 * DEFERRED_WORKGROUP as u64);
         let creation_start = Instant::now();
-        let (kernel, created) = renderer.kernel(key)?;
+        let (kernel, created) = renderer.kernel(&key)?;
         let (bind_group, wavefront) = if key.wavefront {
             let (bind_group, queue) =
                 WavefrontQueue::new(renderer, &kernel, &params_buffer, scene, &outputs, deferred_capacity, w)?;
@@ -377,7 +378,7 @@ impl Accumulation {
             truncated_samples: counts.iter().map(|c| c.truncated as u64).sum(),
             render_time: self.render_time,
             gpu_time: self.timer.is_some().then_some(self.gpu_time),
-            kernel: self.key,
+            kernel: self.key.clone(),
             kernel_creation: self.kernel_creation,
             dispatches: self.dispatches,
             interrupted: !self.is_complete(),

@@ -124,7 +124,7 @@ impl UniformArrays {
 }
 
 /// The override constants of one kernel. `KernelKey::generic()` is the kernel for everything.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct KernelKey {
     /// A fixed strategy, or None to read it at run time.
     pub strategy: Option<Strategy>,
@@ -146,6 +146,9 @@ pub struct KernelKey {
     /// Scene arrays read from uniform buffers (`GpuScene` decides, for small scenes on CPU
     /// adapters); none in the generic kernel.
     pub uniform: UniformArrays,
+    /// A small scene's triangles, compiled into the kernel in place of the BVH (`GpuScene`
+    /// decides, on CPU adapters); none in the generic kernel.
+    pub baked: Option<std::sync::Arc<crate::gpu::baked_triangles::BakedTriangles>>,
 }
 
 impl KernelKey {
@@ -163,6 +166,7 @@ impl KernelKey {
             texture_kinds: [true; 4],
             wavefront: false,
             uniform: UniformArrays::default(),
+            baked: None,
         }
     }
 
@@ -198,6 +202,7 @@ impl KernelKey {
             ],
             wavefront: uses_wavefront(features, settings, auto),
             uniform: UniformArrays::default(),
+            baked: None,
         }
     }
 

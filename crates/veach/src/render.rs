@@ -6,6 +6,7 @@ use crate::accumulation::Accumulation;
 use crate::bvh::{build_bvh, build_bvh_fitting};
 use crate::error::{Error, Result};
 use crate::features::{KernelKey, SceneFeatures, UniformArrays};
+use crate::gpu::baked_triangles::BakedTriangles;
 use crate::gpu::bindings;
 use crate::gpu::context::GpuContext;
 use crate::gpu::layout::{self, FrameParams};
@@ -338,6 +339,9 @@ pub struct GpuScene {
     /// The arrays that are uniform buffers too, with the length they are padded to (see
     /// `BvhMemory`).
     pub(crate) uniform: UniformArrays,
+    /// The triangles compiled into the kernel instead of a BVH, for small scenes on CPU adapters
+    /// (`BvhMemory::Auto`).
+    pub(crate) baked: Option<Arc<BakedTriangles>>,
     /// vertex_uvs, texture_infos, texels, emitter_source: only for scenes with textures.
     pub(crate) texture_buffers: Option<[wgpu::Buffer; 4]>,
     pub(crate) light_count: u32,
@@ -345,6 +349,14 @@ pub struct GpuScene {
     pub stats: SceneUploadStats,
     /// What the scene needs of the kernel.
     pub features: SceneFeatures,
+}
+
+impl GpuScene {
+    /// How many triangles specialised kernels test directly instead of traversing the BVH
+    /// (`shaders/traverse_baked.wgsl`); 0 where they traverse it.
+    pub fn baked_triangles(&self) -> usize {
+        self.baked.as_ref().map_or(0, |b| b.len())
+    }
 }
 
 /// A compiled kernel and its bind group layout. Creating one includes the driver's compile,
@@ -430,8 +442,8 @@ impl Renderer {
 
     /// The kernel for `key`, compiled now if it is not cached (and then also dispatched once,
     /// empty, since drivers such as lavapipe compile at the first dispatch).
-    pub(crate) fn kernel(&self, key: KernelKey) -> Result<(Arc<Kernel>, bool)> {
-        if let Some(k) = self.kernels.lock().expect("kernel cache").get(&key) {
+    pub(crate) fn kernel(&self, key: &KernelKey) -> Result<(Arc<Kernel>, bool)> {
+        if let Some(k) = self.kernels.lock().expect("kernel cache").get(key) {
             return Ok((k.clone(), false));
         }
         let entry_points: &[&str] =
@@ -445,7 +457,7 @@ impl Renderer {
         let (pipelines, layout) = bindings::create_pipelines(
             &self.gpu.device,
             "veach render kernel",
-            shaders::render_kernel_source(key.textures, key.uniform),
+            shaders::render_kernel_source(key.textures, key.uniform, key.baked.as_deref()),
             entry_points,
             extra,
             &key.constants(),
@@ -455,7 +467,7 @@ impl Renderer {
         let pipeline = pipelines.next().expect("one pipeline per entry point");
         let wavefront = pipelines.next().zip(pipelines.next());
         let kernel = Arc::new(Kernel { textures: key.textures, pipeline, wavefront, layout });
-        self.kernels.lock().expect("kernel cache").insert(key, kernel.clone());
+        self.kernels.lock().expect("kernel cache").insert(key.clone(), kernel.clone());
         Ok((kernel, true))
     }
 
@@ -502,6 +514,10 @@ impl Renderer {
         let upload_start = Instant::now();
         let features = SceneFeatures::detect(scene);
         let mut arrays: SceneArrays = build_scene_arrays(scene, &features, &bvh);
+        // Where the arrays may be uniform (a CPU adapter, `BvhMemory::Auto`), a small scene's
+        // triangles are compiled into the kernel instead (before the arrays are padded).
+        let baked =
+            if capacity > 0 { BakedTriangles::new(&arrays.vertices, &arrays.triangles).map(Arc::new) } else { None };
         let uniform = UniformArrays {
             bvh_nodes: pad_for_uniform(&mut arrays.bvh_nodes, capacity),
             vertices: pad_for_uniform(&mut arrays.vertices, self.uniform_capacity::<layout::Vertex>(memory)),
@@ -556,6 +572,7 @@ impl Renderer {
         Ok(GpuScene {
             buffers,
             uniform,
+            baked,
             texture_buffers,
             light_count: scene.lights.len() as u32,
             emitter_bound: arrays.emitter_bound,

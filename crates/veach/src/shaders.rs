@@ -1,10 +1,13 @@
 //! The WGSL kernel, composed at load time from one file per concept in `shaders/`.
 
 use crate::features::UniformArrays;
+use crate::gpu::baked_triangles::BakedTriangles;
 
 /// The shader files in the order they are joined. Later files use what earlier ones declare.
-/// `TEXTURES` marks where the texture module goes: `textures.wgsl` for scenes with textures
-/// (and the generic kernel), `textures_none.wgsl` (same functions, no bindings) otherwise.
+/// `TRAVERSAL` marks where the traversal goes: `traverse_bvh.wgsl`, or `traverse_baked.wgsl` with a
+/// small scene's triangles written in. `TEXTURES` marks where the texture module goes:
+/// `textures.wgsl` for scenes with textures (and the generic kernel), `textures_none.wgsl` (same
+/// functions, no bindings) otherwise.
 pub const SHADER_FILES: &[(&str, &str)] = &[
     ("layout.wgsl", include_str!("../../../shaders/layout.wgsl")),
     ("features.wgsl", include_str!("../../../shaders/features.wgsl")),
@@ -13,6 +16,7 @@ pub const SHADER_FILES: &[(&str, &str)] = &[
     ("sampling.wgsl", include_str!("../../../shaders/sampling.wgsl")),
     ("camera.wgsl", include_str!("../../../shaders/camera.wgsl")),
     ("traverse.wgsl", include_str!("../../../shaders/traverse.wgsl")),
+    TRAVERSAL,
     TEXTURES,
     ("bsdf.wgsl", include_str!("../../../shaders/bsdf.wgsl")),
     ("lights.wgsl", include_str!("../../../shaders/lights.wgsl")),
@@ -21,6 +25,9 @@ pub const SHADER_FILES: &[(&str, &str)] = &[
     ("wavefront.wgsl", include_str!("../../../shaders/wavefront.wgsl")),
 ];
 
+const TRAVERSAL: (&str, &str) = ("traversal", "");
+const TRAVERSE_BVH: (&str, &str) = ("traverse_bvh.wgsl", include_str!("../../../shaders/traverse_bvh.wgsl"));
+const TRAVERSE_BAKED: (&str, &str) = ("traverse_baked.wgsl", include_str!("../../../shaders/traverse_baked.wgsl"));
 const TEXTURES: (&str, &str) = ("textures", "");
 const TEXTURES_ON: (&str, &str) = ("textures.wgsl", include_str!("../../../shaders/textures.wgsl"));
 const TEXTURES_OFF: (&str, &str) = ("textures_none.wgsl", include_str!("../../../shaders/textures_none.wgsl"));
@@ -32,7 +39,7 @@ pub const TEST_ENTRY_POINT: &str = "run_test";
 /// The render kernel's source (with textures) followed by the test kernels (see `gpu::test_kernel`).
 pub fn test_kernel_source() -> String {
     let (name, text) = TEST_KERNELS;
-    format!("{}// ---- shaders/{name} ----\n{text}\n", render_kernel_source(true, UniformArrays::default()))
+    format!("{}// ---- shaders/{name} ----\n{text}\n", render_kernel_source(true, UniformArrays::default(), None))
 }
 
 /// The arrays that may be uniform, as layout.wgsl declares them: name and element type.
@@ -53,17 +60,23 @@ pub const WAVEFRONT_ENTRY_POINTS: [&str; 3] = ["render_light_pass", "prepare_dir
 
 /// The whole kernel source. Each file is preceded by a marker comment so that a line number in
 /// a WGSL error can be traced back to its file. The arrays of `uniform` with a length are read
-/// from uniform arrays of that length instead of storage buffers (`KernelKey::uniform`).
-pub fn render_kernel_source(textures: bool, uniform: UniformArrays) -> String {
+/// from uniform arrays of that length instead of storage buffers (`KernelKey::uniform`). With
+/// `baked` triangles, rays test those instead of traversing the BVH (`KernelKey::baked`).
+pub fn render_kernel_source(textures: bool, uniform: UniformArrays, baked: Option<&BakedTriangles>) -> String {
     let mut source = String::new();
     for &file in SHADER_FILES {
         let (name, text) = match file {
+            TRAVERSAL if baked.is_some() => TRAVERSE_BAKED,
+            TRAVERSAL => TRAVERSE_BVH,
             TEXTURES if textures => TEXTURES_ON,
             TEXTURES => TEXTURES_OFF,
             other => other,
         };
         source.push_str(&format!("// ---- shaders/{name} ----\n"));
-        source.push_str(text);
+        match baked.filter(|_| file == TRAVERSAL) {
+            Some(triangles) => source.push_str(&bake_triangles(text, triangles)),
+            None => source.push_str(text),
+        }
         source.push('\n');
     }
     let lengths = uniform.lengths();
@@ -73,6 +86,24 @@ pub fn render_kernel_source(textures: bool, uniform: UniformArrays) -> String {
         source = source.replace(&storage, &format!("var<uniform> {name}: array<{element}, {n}>;"));
     }
     source
+}
+
+/// traverse_baked.wgsl with each `{baked STATEMENT}` line written out once per triangle.
+fn bake_triangles(template: &str, triangles: &BakedTriangles) -> String {
+    let mut out = String::new();
+    for line in template.lines() {
+        let trimmed = line.trim_start();
+        match trimmed.strip_prefix("{baked ").and_then(|rest| rest.strip_suffix('}')) {
+            Some(statement) => {
+                let indent = &line[..line.len() - trimmed.len()];
+                out.push_str(indent);
+                out.push_str(&triangles.expand(statement, indent));
+            }
+            None => out.push_str(line),
+        }
+        out.push('\n');
+    }
+    out
 }
 
 /// Parses and validates WGSL with naga, returning a readable error that names the file and line.
@@ -99,9 +130,23 @@ mod tests {
             emitter_tris: 1024,
             light_picks: 4096,
         };
-        for (textures, uniform) in [(false, UniformArrays::default()), (true, UniformArrays::default()), (false, small)]
-        {
-            let source = render_kernel_source(textures, uniform);
+        // Two triangles with extreme corners: the largest f32, a subnormal, a negative zero.
+        let vertices = [[f32::MAX, 0.0, -0.0], [1.0e-45, -1.0, 2.5], [0.1, -f32::MAX, 1.0]]
+            .map(|p| crate::gpu::layout::Vertex { p, normal: 0 });
+        let t = crate::gpu::layout::IndexedTriangle { v0: 0, v1: 1, v2: 2, material: 0 };
+        let baked = BakedTriangles::new(&vertices, &[t, t]).unwrap();
+        for (textures, uniform, baked) in [
+            (false, UniformArrays::default(), None),
+            (true, UniformArrays::default(), None),
+            (false, small, None),
+            (false, small, Some(&baked)),
+        ] {
+            let source = render_kernel_source(textures, uniform, baked);
+            if baked.is_some() {
+                assert!(!source.lines().any(|l| l.trim_start().starts_with("{baked")), "a template line left in");
+                assert!(!source.contains("var<private> bvh_stack"), "a baked kernel with the BVH's traversal");
+                assert_eq!(source.matches("closest_candidate(&hit").count(), 2);
+            }
             let module = validate_wgsl(&source).unwrap_or_else(|e| panic!("WGSL invalid (textures {textures}):\n{e}"));
             assert!(
                 module

@@ -1,5 +1,6 @@
 //! Everything that talks to wgpu: the shared data layout, the device, and the scene's buffers.
 
+pub mod baked_triangles;
 pub mod bindings;
 pub mod bvh_nodes;
 pub mod context;

@@ -1,0 +1,123 @@
+// traverse_bvh.wgsl: BVH2 traversal with a closest-hit query (camera and BRDF rays) and an any-hit
+// query (shadow rays), over traverse.wgsl's watertight ray/triangle test. Scenes of at most a few
+// dozen triangles on CPU adapters use traverse_baked.wgsl instead.
+
+const BVH_STACK_SIZE: u32 = 64u;
+
+// The traversal stack, shared by both traversals (a ray's traversal ends before the next begins).
+// At module scope it is zeroed once per invocation, as WGSL requires of every variable; declared
+// in trace_closest and trace_occluded it was zeroed at every call, 64 stores per traversal, which Mesa
+// 22.3's lavapipe does not optimise away: 0.75-0.84x the render time there (docs/performance.md,
+// "The traversal stack at module scope").
+var<private> bvh_stack: array<u32, BVH_STACK_SIZE>;
+
+// A traversal's position: an inner node's index, or a leaf's reference (LEAF_BIT set; see
+// BvhNode), or NO_NODE (LEAF_BIT set too) once the stack is empty. The stack holds the same.
+const LEAF_BIT: u32 = 0x80000000u;
+const NO_NODE: u32 = 0xffffffffu;
+
+fn leaf_first(position: u32) -> u32 {
+    return position & 0x07ffffffu;
+}
+
+fn leaf_count(position: u32) -> u32 {
+    return (position >> 27u) & 0xfu;
+}
+
+// One step from inner node `node`, given the ray's entry distances to its children (RAY_INF where
+// it misses one): the nearer child it enters, with the farther pushed on the stack; the one it
+// enters; or, entering neither, the position on top of the stack, or NO_NODE when that is empty.
+fn next_node(node: BvhNode, tl: f32, tr: f32, sp: ptr<function, u32>) -> u32 {
+    if tl != RAY_INF && tr != RAY_INF {
+        let near_is_left = tl <= tr;
+        if *sp < BVH_STACK_SIZE {
+            bvh_stack[*sp] = select(node.left, node.right, near_is_left);
+            *sp += 1u;
+        }
+        return select(node.right, node.left, near_is_left);
+    }
+    if tl != RAY_INF {
+        return node.left;
+    }
+    if tr != RAY_INF {
+        return node.right;
+    }
+    if *sp == 0u {
+        return NO_NODE;
+    }
+    *sp -= 1u;
+    return bvh_stack[*sp];
+}
+
+// Both traversals below are "while-while" loops (Aila & Laine, "Understanding the Efficiency of
+// Ray Traversal on GPUs", HPG 2009): the inner loop walks inner nodes until the ray reaches a
+// leaf, the outer one tests that leaf's triangles. Rays that run side by side in SIMD lanes
+// (lavapipe runs 8 per instruction) then test their triangles together, instead of one lane's
+// leaf holding up the others' descent.
+
+// Closest hit along origin + t * dir, t in (0, t_max).
+fn trace_closest(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
+    var hit = Hit(t_max, 0.0, 0.0, 0u, false);
+    let sh = ray_shear(dir);
+    let inv_dir = safe_inverse(dir);
+    var sp = 0u;
+    var position = 0u;
+    loop {
+        while position < LEAF_BIT {
+            // Ordered traversal: visit the nearer child first, push the farther one.
+            let node = bvh_nodes[position];
+            let tl = intersect_aabb(origin, inv_dir, node.left_min, node.left_max, hit.t);
+            let tr = intersect_aabb(origin, inv_dir, node.right_min, node.right_max, hit.t);
+            position = next_node(node, tl, tr, &sp);
+        }
+        if position == NO_NODE {
+            break;
+        }
+        let first = leaf_first(position);
+        for (var i = first; i < first + leaf_count(position); i++) {
+            let tri = triangle_corners(i);
+            let r = intersect_triangle(origin, sh, tri.p0, tri.p1, tri.p2, hit.t);
+            if r.x > 0.0 {
+                hit = Hit(r.x, r.y, r.z, i, true);
+            }
+        }
+        if sp == 0u {
+            break;
+        }
+        sp--;
+        position = bvh_stack[sp];
+    }
+    return hit;
+}
+
+// Any hit along origin + t * dir, t in (0, t_max): true when the segment is blocked.
+fn trace_occluded(origin: vec3f, dir: vec3f, t_max: f32) -> bool {
+    let sh = ray_shear(dir);
+    let inv_dir = safe_inverse(dir);
+    var sp = 0u;
+    var position = 0u;
+    loop {
+        while position < LEAF_BIT {
+            let node = bvh_nodes[position];
+            let tl = intersect_aabb(origin, inv_dir, node.left_min, node.left_max, t_max);
+            let tr = intersect_aabb(origin, inv_dir, node.right_min, node.right_max, t_max);
+            position = next_node(node, tl, tr, &sp);
+        }
+        if position == NO_NODE {
+            break;
+        }
+        let first = leaf_first(position);
+        for (var i = first; i < first + leaf_count(position); i++) {
+            let tri = triangle_corners(i);
+            if intersect_triangle(origin, sh, tri.p0, tri.p1, tri.p2, t_max).x > 0.0 {
+                return true;
+            }
+        }
+        if sp == 0u {
+            break;
+        }
+        sp--;
+        position = bvh_stack[sp];
+    }
+    return false;
+}
