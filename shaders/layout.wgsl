@@ -79,7 +79,7 @@ struct FrameParams {
 }
 
 // An inner node of the BVH2, 64 bytes (crates/veach/src/gpu/bvh_nodes.rs): its two children's
-// boxes, and references to them: an inner node's index, or a leaf (LEAF_BIT, in traverse.wgsl)
+// boxes, and references to them: an inner node's index, or a leaf (LEAF_BIT, in traverse_bvh.wgsl)
 // with its triangle count in bits 27-30 and its first triangle of the BVH-ordered `triangles` in
 // bits 0-26. Node 0 is the root.
 struct BvhNode {

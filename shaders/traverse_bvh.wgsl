@@ -1,6 +1,6 @@
 // traverse_bvh.wgsl: BVH2 traversal with a closest-hit query (camera and BRDF rays) and an any-hit
-// query (shadow rays), over traverse.wgsl's watertight ray/triangle test. Scenes of at most a few
-// dozen triangles on CPU adapters use traverse_baked.wgsl instead.
+// query (shadow rays), over traverse.wgsl's watertight ray/triangle test. Scenes of at most 64
+// triangles on CPU adapters use traverse_baked.wgsl instead (BAKED_TRIANGLES_MAX).
 
 const BVH_STACK_SIZE: u32 = 64u;
 

@@ -1,6 +1,6 @@
 //! The BVH as the kernels read it: its inner nodes, each holding its two children's boxes and
 //! references, so that a traversal step loads one 64-byte node (14 words) instead of the node
-//! and both children (24 words of three 32-byte nodes). `shaders/traverse.wgsl` reads it.
+//! and both children (24 words of three 32-byte nodes). `shaders/traverse_bvh.wgsl` reads it.
 
 use crate::bvh::BvhNode as HostNode;
 use crate::gpu::layout::BvhNode;
