@@ -159,7 +159,7 @@ fn trace_light_sample(c: ShadingContext, index: u32, p_select: f32, u: vec2f, ra
         t_max = len * (1.0 - 1.0e-4);
     }
     *rays += 1u;
-    if trace_occluded(origin, shadow_dir, t_max) {
+    if trace_occluded(origin, shadow_dir, t_max, ls.skip) {
         return r;
     }
     r.g = f * ls.value * wi.z;

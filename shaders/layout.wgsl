@@ -88,9 +88,11 @@ struct BvhNode {
     left_max: vec3f,
     right: u32,
     right_min: vec3f,
-    _pad0: u32,
+    // 1 + the convex light whose triangles alone fill the child's subtree, or 0: shadow rays
+    // towards a point of that light skip it (crates/veach/src/gpu/light_subtrees.rs).
+    left_light: u32,
     right_max: vec3f,
-    _pad1: u32,
+    right_light: u32,
 }
 
 // A vertex in world space, shared by the triangles that index it: its position and its shading
@@ -179,7 +181,9 @@ struct Light {
     intensity: vec3f,
     cos_outer: f32,
     bound_radius: f32,
-    _pad0: u32,
+    // 1 where the area light is convex (crates/veach/src/gpu/light_subtrees.rs): a shadow ray
+    // towards a point of it that faces the receiver skips the subtrees only its triangles fill.
+    convex: u32,
     _pad1: u32,
     _pad2: u32,
 }

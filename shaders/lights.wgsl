@@ -13,6 +13,9 @@ struct LightSample {
     // Where the shadow ray ends: the sampled point pushed off the light's surface towards the
     // receiver (area lights), the light's position (point, spot); unused for directional.
     shadow_end: vec3f,
+    // 1 + the light whose subtrees the shadow ray may skip (BvhNode.left_light): where the light
+    // is convex and the sampled point's triangle faces the receiver; 0 for none.
+    skip: u32,
 }
 
 fn light_is_delta(kind: u32) -> bool {
@@ -215,7 +218,7 @@ fn spherical_sampling_solid_angle(x: vec3f, p0: vec3f, p1: vec3f, p2: vec3f) -> 
 // converted to solid angle), or, with LIGHT_SAMPLING_SOLID_ANGLE, a direction uniform in the
 // triangle's solid angle (pdf P(triangle) / Ω, Arvo 1995), which stays bounded where r² → 0
 // at a contact edge and where cos θ_l → 0 at grazing angles.
-fn sample_area_light(light: Light, x: vec3f, u_light: vec2f) -> LightSample {
+fn sample_area_light(index: u32, light: Light, x: vec3f, u_light: vec2f) -> LightSample {
     let pick = select_emitter_triangle(light, u_light.x);
     let ti = pick.index;
     let u = vec2f(pick.u, u_light.y);
@@ -242,10 +245,12 @@ fn sample_area_light(light: Light, x: vec3f, u_light: vec2f) -> LightSample {
     let dist_sq = dot(d, d);
     let dist = sqrt(dist_sq);
     let wi = d / dist;
-    var s = LightSample(wi, dist, vec3f(0.0), 0.0, false, offset_ray_origin(y, n_l, -wi));
+    var s = LightSample(wi, dist, vec3f(0.0), 0.0, false, offset_ray_origin(y, n_l, -wi), 0u);
     if failed || dist_sq <= 0.0 || !emits_towards(light.double_sided != 0u, n_l, wi) {
         return s;
     }
+    // In front of the sampled triangle's plane, the receiver sees a convex light nowhere else.
+    s.skip = select(0u, index + 1u, light.convex != 0u && dot(n_l, wi) < 0.0);
     s.value = light.intensity * emitter_emission_texture(ti, b.x, b.y);
     if omega > 0.0 {
         s.pdf = (0.5 * length(n) / light.area) / omega;
@@ -267,7 +272,7 @@ fn spot_falloff(light: Light, wi: vec3f) -> f32 {
 
 fn sample_delta_light(light: Light, x: vec3f) -> LightSample {
     if light.kind == LIGHT_DIRECTIONAL {
-        return LightSample(-light.direction, RAY_INF, light.intensity, 1.0, true, vec3f(0.0));
+        return LightSample(-light.direction, RAY_INF, light.intensity, 1.0, true, vec3f(0.0), 0u);
     }
     let d = light.position - x;
     let dist_sq = dot(d, d);
@@ -277,19 +282,19 @@ fn sample_delta_light(light: Light, x: vec3f) -> LightSample {
     if light.kind == LIGHT_SPOT {
         value *= spot_falloff(light, wi);
     }
-    return LightSample(wi, dist, value, 1.0, true, light.position);
+    return LightSample(wi, dist, value, 1.0, true, light.position, 0u);
 }
 
 // Sample light `index` from x; the returned pdf excludes the selection probability.
 fn sample_light(index: u32, x: vec3f, u: vec2f) -> LightSample {
     let light = lights[index];
     if HAS_AREA_LIGHTS && light.kind == LIGHT_AREA {
-        return sample_area_light(light, x, u);
+        return sample_area_light(index, light, x, u);
     }
     if HAS_DELTA_LIGHTS {
         return sample_delta_light(light, x);
     }
-    return LightSample(vec3f(0.0, 0.0, 1.0), 0.0, vec3f(0.0), 0.0, false, x);
+    return LightSample(vec3f(0.0, 0.0, 1.0), 0.0, vec3f(0.0), 0.0, false, x, 0u);
 }
 
 // Solid-angle pdf with which the light strategy (selection included) would have produced the

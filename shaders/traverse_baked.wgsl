@@ -18,7 +18,8 @@ fn trace_closest(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
 // Any hit along origin + t * dir, t in (0, t_max): true when the segment is blocked.
 // Each test returns where it blocks the ray: once all of lavapipe's 8 lanes have returned, the
 // rest is skipped (0.97x the render time of or-ing every test into one flag).
-fn trace_occluded(origin: vec3f, dir: vec3f, t_max: f32) -> bool {
+// `skip` (traverse_bvh.wgsl) is for the BVH; these kernels have none to skip.
+fn trace_occluded(origin: vec3f, dir: vec3f, t_max: f32, skip: u32) -> bool {
     let sh = ray_shear(dir);
     {baked if intersect_triangle(origin, sh, p0, p1, p2, t_max).x > 0.0 { return true; }}
     return false;

@@ -90,8 +90,12 @@ fn trace_closest(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
     return hit;
 }
 
-// Any hit along origin + t * dir, t in (0, t_max): true when the segment is blocked.
-fn trace_occluded(origin: vec3f, dir: vec3f, t_max: f32) -> bool {
+// Any hit along origin + t * dir, t in (0, t_max): true when the segment is blocked. Subtrees
+// that only the triangles of light `skip - 1` fill are left out (skip 0: none): the light is
+// convex, and cannot block a shadow ray towards a point of it that faces the receiver.
+fn trace_occluded(origin: vec3f, dir: vec3f, t_max: f32, skip: u32) -> bool {
+    // No node's light tag is all ones.
+    let skipped = select(0xffffffffu, skip, skip != 0u);
     let sh = ray_shear(dir);
     let inv_dir = safe_inverse(dir);
     var sp = 0u;
@@ -99,8 +103,8 @@ fn trace_occluded(origin: vec3f, dir: vec3f, t_max: f32) -> bool {
     loop {
         while position < LEAF_BIT {
             let node = bvh_nodes[position];
-            let tl = intersect_aabb(origin, inv_dir, node.left_min, node.left_max, t_max);
-            let tr = intersect_aabb(origin, inv_dir, node.right_min, node.right_max, t_max);
+            let tl = select(intersect_aabb(origin, inv_dir, node.left_min, node.left_max, t_max), RAY_INF, node.left_light == skipped);
+            let tr = select(intersect_aabb(origin, inv_dir, node.right_min, node.right_max, t_max), RAY_INF, node.right_light == skipped);
             position = next_node(node, tl, tr, &sp);
         }
         if position == NO_NODE {

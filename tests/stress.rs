@@ -212,3 +212,80 @@ fn a_camera_sample_over_the_loop_limit_is_an_error_not_a_dark_image() {
         assert!(result.is_ok());
     }
 }
+
+/// A light whose two panels face each other (a ridge over the floor, emitting inwards): from the
+/// floor beside it, the near panel's back shadows part of the far panel. Such a light is not
+/// convex, so its shadow rays must not skip its own triangles (crates/veach/src/gpu/light_subtrees.rs):
+/// the floor renders as it does with each panel a light of its own (each planar, so convex, and
+/// skipping only itself). Traversed through a BVH (`BvhMemory::Storage`), where the skipping is.
+/// Region means of 16 × 16 pixels × 256 light samples; the tolerance is 5 standard deviations of
+/// the difference, from each image's per-pixel sample variance.
+#[test]
+fn a_light_that_shadows_itself_is_not_skipped() {
+    use glam::{Mat4, Vec3};
+    use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
+    let panel = |x_low: f32, facing: Vec3| {
+        MeshData::quad(
+            Vec3::new(x_low, 0.2, -1.0),
+            Vec3::new(x_low, 0.2, 1.0),
+            Vec3::new(0.0, 1.2, 1.0),
+            Vec3::new(0.0, 1.2, -1.0),
+            facing,
+        )
+    };
+    let (left, right) = (panel(-1.0, Vec3::new(1.0, -1.0, 0.0)), panel(1.0, Vec3::new(-1.0, -1.0, 0.0)));
+    let build = |one_light: bool| {
+        let mut g = GltfBuilder::new();
+        let floor = g.material(&MaterialDesc::lambert("floor", Vec3::splat(0.5)));
+        let light = g.material(&MaterialDesc::emitter("ridge", Vec3::splat(4.0)));
+        let q = MeshData::quad(
+            Vec3::new(-4.0, 0.0, -4.0),
+            Vec3::new(4.0, 0.0, -4.0),
+            Vec3::new(4.0, 0.0, 4.0),
+            Vec3::new(-4.0, 0.0, 4.0),
+            Vec3::Y,
+        );
+        g.add_mesh("floor", &q, floor, Mat4::IDENTITY);
+        if one_light {
+            let mut both =
+                MeshData { positions: left.positions.clone(), indices: left.indices.clone(), normals: None, uvs: None };
+            both.positions.extend(&right.positions);
+            both.indices.extend(right.indices.iter().map(|i| i + 4));
+            g.add_mesh("ridge", &both, light, Mat4::IDENTITY);
+        } else {
+            g.add_mesh("left", &MeshData { normals: None, uvs: None, ..left.clone() }, light, Mat4::IDENTITY);
+            g.add_mesh("right", &MeshData { normals: None, uvs: None, ..right.clone() }, light, Mat4::IDENTITY);
+        }
+        g.camera("camera", Vec3::new(2.5, 3.0, 0.01), Vec3::new(2.5, 0.0, 0.0), 40.0);
+        load(&g, if one_light { "self-shadowing-light" } else { "self-shadowing-light-split" })
+    };
+    let settings = RenderSettings {
+        width: 16,
+        height: 16,
+        spp: 64,
+        strategy: Strategy::Light,
+        light_samples: 4,
+        light_selection: LightSelection::Each,
+        hide_emitters: true,
+        seed: 11,
+        ..Default::default()
+    };
+    let mut means = Vec::new();
+    for one_light in [true, false] {
+        let scene = build(one_light);
+        assert_eq!(scene.lights.len(), if one_light { 1 } else { 2 });
+        let gpu_scene = renderer().upload_scene_with(&scene, veach::render::BvhMemory::Storage).unwrap();
+        let out = render(&gpu_scene, &settings, &scene.camera(None).unwrap());
+        means.push(region(&out, 0, 0, 16, 16));
+    }
+    let (one, split) = (means[0], means[1]);
+    for c in 0..3 {
+        let z = (one.mean[c] - split.mean[c]) / (one.var[c] + split.var[c]).sqrt();
+        assert!(
+            z.abs() < 5.0,
+            "channel {c}: one light {:.5} against two {:.5} ({z:.1} sigma)",
+            one.mean[c],
+            split.mean[c]
+        );
+    }
+}

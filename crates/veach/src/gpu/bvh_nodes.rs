@@ -12,9 +12,11 @@ pub const MAX_LEAF_TRIANGLES: u32 = 15;
 pub const MAX_FIRST_TRIANGLE: u32 = (1 << 27) - 1;
 
 /// The GPU nodes of a BVH: its inner nodes, in the same order, root first, each with its two
-/// children's boxes and references. A tree that is a single leaf gets a root over that leaf and
-/// an empty one.
-pub fn encode_bvh_nodes(nodes: &[HostNode]) -> Vec<BvhNode> {
+/// children's boxes and references, and the children's light tags (`node_lights`, one per host
+/// node: 1 + the convex light that alone fills it, or 0; `gpu::light_subtrees`). A tree that is
+/// a single leaf gets a root over that leaf and an empty one.
+pub fn encode_bvh_nodes(nodes: &[HostNode], node_lights: &[u32]) -> Vec<BvhNode> {
+    assert_eq!(nodes.len(), node_lights.len(), "a light tag for every node");
     if let [leaf] = nodes {
         // The empty leaf (count 0 in its reference) shares the leaf's box: it costs a box test.
         return vec![encode_inner(leaf, leaf, leaf_reference(leaf), LEAF_BIT)];
@@ -40,7 +42,11 @@ pub fn encode_bvh_nodes(nodes: &[HostNode]) -> Vec<BvhNode> {
         .filter(|n| n.count == 0)
         .map(|n| {
             let (left, right) = (&nodes[n.first as usize], &nodes[n.first as usize + 1]);
-            encode_inner(left, right, reference(n.first), reference(n.first + 1))
+            BvhNode {
+                left_light: node_lights[n.first as usize],
+                right_light: node_lights[n.first as usize + 1],
+                ..encode_inner(left, right, reference(n.first), reference(n.first + 1))
+            }
         })
         .collect()
 }
@@ -84,13 +90,15 @@ mod tests {
             })
             .collect();
         let bvh = build_bvh(&tris);
-        let gpu = encode_bvh_nodes(&bvh.nodes);
+        let lights: Vec<u32> = (0..bvh.nodes.len() as u32).map(|i| i % 3).collect();
+        let gpu = encode_bvh_nodes(&bvh.nodes, &lights);
         let inner: Vec<&HostNode> = bvh.nodes.iter().filter(|n| n.count == 0).collect();
         assert_eq!(gpu.len(), inner.len());
         assert_eq!(gpu.len(), bvh.gpu_nodes());
         assert!(std::ptr::eq(inner[0], &bvh.nodes[0]), "the root comes first");
         for (n, g) in inner.iter().zip(&gpu) {
             let children = [&bvh.nodes[n.first as usize], &bvh.nodes[n.first as usize + 1]];
+            assert_eq!([g.left_light, g.right_light], [lights[n.first as usize], lights[n.first as usize + 1]]);
             let boxes = [(g.left_min, g.left_max), (g.right_min, g.right_max)];
             for ((child, (min, max)), reference) in children.into_iter().zip(boxes).zip([g.left, g.right]) {
                 assert_eq!((min, max), (child.min, child.max));
@@ -106,7 +114,7 @@ mod tests {
     #[test]
     fn a_single_leaf_gets_a_root_over_it_and_an_empty_leaf() {
         let leaf = HostNode { min: [0.0; 3], first: 0, max: [1.0; 3], count: 3 };
-        let gpu = encode_bvh_nodes(&[leaf]);
+        let gpu = encode_bvh_nodes(&[leaf], &[0]);
         assert_eq!(gpu.len(), 1);
         assert_eq!((gpu[0].left, gpu[0].right), (LEAF_BIT | 3 << 27, LEAF_BIT));
         assert_eq!((gpu[0].left_min, gpu[0].left_max), ([0.0; 3], [1.0; 3]));

@@ -86,9 +86,10 @@ pub struct BvhNode {
     pub left_max: [f32; 3],
     pub right: u32,
     pub right_min: [f32; 3],
-    pub _pad0: u32,
+    /// 1 + the convex light that alone fills the child's subtree, or 0 (`gpu::light_subtrees`).
+    pub left_light: u32,
     pub right_max: [f32; 3],
-    pub _pad1: u32,
+    pub right_light: u32,
 }
 
 #[repr(C)]
@@ -182,7 +183,9 @@ pub struct Light {
     pub intensity: [f32; 3],
     pub cos_outer: f32,
     pub bound_radius: f32,
-    pub _pad0: u32,
+    /// 1 where the area light is convex (`gpu::light_subtrees::is_convex`): its shadow rays skip
+    /// the subtrees that only its triangles fill.
+    pub convex: u32,
     pub _pad1: u32,
     pub _pad2: u32,
 }
@@ -297,7 +300,7 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             sampler,
             loop_check
         }),
-        layout!(BvhNode { left_min, left, left_max, right, right_min, _pad0, right_max, _pad1 }),
+        layout!(BvhNode { left_min, left, left_max, right, right_min, left_light, right_max, right_light }),
         layout!(Vertex { p, normal }),
         layout!(IndexedTriangle { v0, v1, v2, material }),
         layout!(Material {
@@ -328,7 +331,7 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             intensity,
             cos_outer,
             bound_radius,
-            _pad0,
+            convex,
             _pad1,
             _pad2
         }),

@@ -5,5 +5,6 @@ pub mod bindings;
 pub mod bvh_nodes;
 pub mod context;
 pub mod layout;
+pub mod light_subtrees;
 pub mod scene_buffers;
 pub mod test_kernel;

@@ -2,6 +2,7 @@
 
 use super::bvh_nodes::encode_bvh_nodes;
 use super::layout::{self, NO_LIGHT};
+use super::light_subtrees::{is_convex, node_lights};
 use crate::alias::alias_table;
 use crate::bvh::Bvh;
 use crate::features::SceneFeatures;
@@ -167,6 +168,21 @@ pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) ->
         lights.push(g);
     }
 
+    // Shadow rays towards a point of a convex light skip the subtrees it alone fills.
+    let convex: Vec<bool> = scene
+        .lights
+        .iter()
+        .map(|light| match &light.kind {
+            LightKind::Area { triangles, .. } => {
+                is_convex(&triangles.iter().map(|&t| scene.triangles[t as usize].p).collect::<Vec<_>>())
+            }
+            _ => false,
+        })
+        .collect();
+    for (g, &c) in lights.iter_mut().zip(&convex) {
+        g.convex = c as u32;
+    }
+
     // Lights by power; all dark (or no power at all): uniformly.
     let powers: Vec<f64> =
         light_powers(scene).iter().map(|&p| if p.is_finite() { p.max(0.0) as f64 } else { 0.0 }).collect();
@@ -213,7 +229,7 @@ pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) ->
     let textures = with_uvs.then(|| texture_arrays(scene, bvh, &emitter_scene_tris, vertex_uvs));
 
     SceneArrays {
-        bvh_nodes: encode_bvh_nodes(&bvh.nodes),
+        bvh_nodes: encode_bvh_nodes(&bvh.nodes, &node_lights(bvh, &triangle_light, &convex)),
         vertices,
         triangles,
         triangle_lights,
