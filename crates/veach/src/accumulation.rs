@@ -12,6 +12,13 @@ use crate::scene::Camera;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+/// The first dispatch's work, in rays (`rays_per_camera_sample`): 2^18, a 256×256 image's pass
+/// with MIS 1 + 1, about 10 ms on lavapipe for the shipped scenes. It was 8 rows, whatever the
+/// samples: on lavapipe each dispatch costs about 2 ms more than its samples, and the first pass
+/// over a 256×256 image took four dispatches (12.3 ms against 10.3 ms in one; docs/performance.md,
+/// "The first dispatch").
+const FIRST_DISPATCH_RAYS: u64 = 1 << 18;
+
 pub struct Accumulation {
     gpu: GpuContext,
     settings: RenderSettings,
@@ -232,7 +239,7 @@ impl Accumulation {
         // Never more than 4× the last dispatch's work, so one misleading measurement (a
         // dispatch that waited behind other work, say) cannot size a dispatch of minutes.
         let target_work = match self.cost {
-            None => (w as u64 * 8).min(pixels),
+            None => (FIRST_DISPATCH_RAYS / self.rays_per_camera_sample()).clamp(w as u64, pixels),
             Some(c) => ((target.as_secs_f64() / c) as u64).clamp(w as u64, 4 * self.last_work.max(w as u64)),
         };
         let (rows, samples) = if self.row_start == 0 && target_work >= pixels && h <= max_rows {
@@ -253,6 +260,14 @@ impl Accumulation {
             self.sample_start += samples;
         }
         Ok(elapsed)
+    }
+
+    /// Rays one camera sample traces at most, roughly: the camera's, the light samples' and the
+    /// direction samples'.
+    fn rays_per_camera_sample(&self) -> u64 {
+        let p = &self.params;
+        let lights = if p.light_selection == crate::gpu::layout::SELECT_EACH { p.light_count.max(1) } else { 1 };
+        1 + p.brdf_samples as u64 + p.light_samples as u64 * lights as u64
     }
 
     /// Submits rows [row_start, row_start + rows) × `samples` camera samples, waits, and returns
