@@ -1,4 +1,5 @@
-//! Shadow rays towards a convex light skip the light's own BVH subtree. A shadow ray from x to a
+//! Shadow rays towards a convex light skip the BVH subtrees that only its triangles fill (tagged
+//! in the GPU nodes, `BvhNode::left_light`, `right_light`). A shadow ray from x to a
 //! point y on a light whose triangle at y faces x cannot meet that light anywhere else when the
 //! light's triangles bound a convex body (each lies in a plane with all of the light behind it):
 //! the segment lies in front of y's plane, the light behind it. Traversal then need not descend
@@ -58,9 +59,18 @@ pub fn node_lights(bvh: &Bvh, triangle_light: &[u32], convex: &[bool]) -> Vec<u3
         if (l as usize) < lights { l } else { MIXED }
     };
     let nodes = &bvh.nodes;
+    // Parents before children (depth first from the root), then swept in reverse, so that both
+    // children of a node are done before it, whatever order the builder left the nodes in.
+    let mut parents_first = Vec::with_capacity(nodes.len());
+    let mut stack = vec![0usize];
+    while let Some(i) = stack.pop() {
+        parents_first.push(i);
+        if nodes[i].count == 0 {
+            stack.extend([nodes[i].first as usize, nodes[i].first as usize + 1]);
+        }
+    }
     let mut owner = vec![MIXED; nodes.len()];
-    // Children come after their parents: a reverse sweep sees both children of a node first.
-    for i in (0..nodes.len()).rev() {
+    for &i in parents_first.iter().rev() {
         let n = &nodes[i];
         owner[i] = if n.count > 0 {
             let first = light_of(n.first);
