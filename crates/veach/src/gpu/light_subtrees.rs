@@ -7,8 +7,6 @@
 //! Veach scene (four spheres of 960 triangles each) the shadow rays took half the render time.
 
 use crate::bvh::Bvh;
-#[cfg(test)]
-use crate::gpu::layout::NO_LIGHT;
 use glam::Vec3;
 use std::collections::HashSet;
 
@@ -88,6 +86,7 @@ mod tests {
     use super::*;
     use crate::assets::gltf_writer::MeshData;
     use crate::bvh::build_bvh;
+    use crate::gpu::layout::NO_LIGHT;
     use crate::scene::Triangle;
 
     fn triangles(mesh: &MeshData) -> Vec<[Vec3; 3]> {
