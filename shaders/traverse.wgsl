@@ -71,9 +71,13 @@ fn intersect_triangle(origin: vec3f, sh: RayShear, p0: vec3f, p1: vec3f, p2: vec
     let a = p0 - origin;
     let b = p1 - origin;
     let c = p2 - origin;
+    // z scaled per corner (the paper's Az = Sz * A[kz]), which triangles sharing a corner share.
     let az = component(a, sh.kz);
     let bz = component(b, sh.kz);
     let cz = component(c, sh.kz);
+    let az_scaled = sh.s.z * az;
+    let bz_scaled = sh.s.z * bz;
+    let cz_scaled = sh.s.z * cz;
     let ax = component(a, sh.kx) - sh.s.x * az;
     let ay = component(a, sh.ky) - sh.s.y * az;
     let bx = component(b, sh.kx) - sh.s.x * bz;
@@ -85,18 +89,19 @@ fn intersect_triangle(origin: vec3f, sh: RayShear, p0: vec3f, p1: vec3f, p2: vec
     let w = bx * ay - by * ax;
     // Edge functions exactly zero: recompute in double precision, as the paper prescribes.
     // WGSL has no portable f64, so we fall back to treating the edge as inside; the
-    // consistent sign test below still makes shared edges watertight.
+    // consistent sign test below still makes shared edges watertight. Outside: signs differ.
     let outside = (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0);
     let det = u + v + w;
-    let t_scaled = u * sh.s.z * az + v * sh.s.z * bz + w * sh.s.z * cz;
-    // t = t_scaled / det must lie in (0, t_max); compare without dividing, sign-aware (det = 0
-    // fails both).
-    let in_front = (det < 0.0 && t_scaled < 0.0 && t_scaled >= t_max * det)
-        || (det > 0.0 && t_scaled > 0.0 && t_scaled <= t_max * det);
+    let t_scaled = u * az_scaled + v * bz_scaled + w * cz_scaled;
+    // The paper compares t_scaled with t_max * det, sign-aware, to divide only for hits; without
+    // branches the division runs anyway, and testing t itself is 8 instructions fewer (Cornell box
+    // 0.94x on lavapipe). det = 0 gives t = inf or NaN, which fails the range test.
+    let inv_det = 1.0 / det;
+    let t = t_scaled * inv_det;
+    let in_front = t > 0.0 && t < t_max;
     // Tests and selects, no branches: a branch per test costs lavapipe's 8 lanes a mask check each,
     // which made the baked triangles (traverse_baked.wgsl) 1.45x slower; neutral in BVH leaves.
-    let inv_det = 1.0 / det;
-    return select(vec3f(-1.0, 0.0, 0.0), vec3f(t_scaled * inv_det, v * inv_det, w * inv_det), !outside && in_front);
+    return select(vec3f(-1.0, 0.0, 0.0), vec3f(t, v * inv_det, w * inv_det), !outside && in_front);
 }
 
 // Slab test; returns the entry distance or RAY_INF on a miss. The exit distance is scaled by
