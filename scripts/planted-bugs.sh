@@ -35,6 +35,7 @@ bugs=(
   "shaders/textures.wgsl|return vec2f(dot(r.row0, h), dot(r.row1, h));|return vec2f(dot(r.row1, h), dot(r.row0, h));|textures|floor_pixels|KHR_texture_transform rows swapped"
   "shaders/textures.wgsl|return select(v, vec4f(srgb_to_linear(v.rgb), v.a), srgb);|return v;|textures|lookups|sRGB textures not decoded"
   "shaders/lights.wgsl|max(b + sqrt(max(h_sq, 0.0)), 0.0)|max(b, 0.0)|strategies|cornell_box|direction samples clipped at the light's centre, not its far side"
+  "shaders/lights.wgsl|let box = box_exit(origin, dir, frame.emitter_min, frame.emitter_max);|let box = box_exit(origin, dir, frame.emitter_min, frame.emitter_min);|strategies|flat_grid|past 16 lights, the emitters' box shrunk to its corner"
   "shaders/layout.wgsl|let t = max(-n.z, 0.0);|let t = 0.0;|sampling|encoded_normals|octahedral decoding without the lower hemisphere's fold"
   "shaders/wavefront.wgsl|sample_stream(q.pixel, q.sample, frame.seed)|sample_stream(q.pixel, frame.sample_start, frame.seed)|specialise|wavefront|direction kernel re-traces the first round's camera ray"
   "shaders/traverse.wgsl|let int_scale = 32.0;|let int_scale = 256.0;|stress|far_from_the_origin|ray offset of 256 ULPs (2 units at 1e5)"

@@ -76,6 +76,12 @@ struct FrameParams {
     loop_check: u32,
     _pad5: u32,
     _pad6: u32,
+    // A box around every area light's triangles, for emitter_reach: the sphere's companion,
+    // tighter for lights that lie in a plane or along a line.
+    emitter_min: vec3f,
+    _pad7: u32,
+    emitter_max: vec3f,
+    _pad8: u32,
 }
 
 // An inner node of the BVH2, 64 bytes (crates/veach/src/gpu/bvh_nodes.rs): its two children's

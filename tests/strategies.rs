@@ -464,3 +464,25 @@ fn per_point_light_choice_keeps_lights_whose_centre_is_below_the_horizon() {
         ],
     );
 }
+
+/// Past 16 lights a direction sample's ray is traced only as far as it can find an emitter: to
+/// where it leaves the sphere and the box around all emitters (`emitter_reach`, lights.wgsl),
+/// and not at all where it misses them. Under `veach scale`'s grid of 64 small lights 1 m over a
+/// floor (a box of zero height around them, grown by rounding's margin), BRDF sampling and MIS
+/// must still find every light: they agree with light sampling, which traces no such ray.
+#[test]
+fn direction_samples_find_every_light_of_a_flat_grid_of_many() {
+    let path = output_dir("scenes").join("light-grid-64.gltf");
+    veach::assets::scale::light_scene(64, 64).write(&path).unwrap();
+    check_scene(
+        path.to_str().unwrap(),
+        24,
+        24,
+        6,
+        config("reference", Strategy::Light, 256, 8, 0, Power, Balance),
+        &[
+            config("brdf", Strategy::Brdf, 64, 0, 64, Each, Balance),
+            config("mis-power", Strategy::Mis, 64, 4, 4, Power, PowerHeuristic),
+        ],
+    );
+}

@@ -346,6 +346,7 @@ pub struct GpuScene {
     pub(crate) texture_buffers: Option<[wgpu::Buffer; 4]>,
     pub(crate) light_count: u32,
     pub(crate) emitter_bound: ([f32; 3], f32),
+    pub(crate) emitter_box: ([f32; 3], [f32; 3]),
     pub stats: SceneUploadStats,
     /// What the scene needs of the kernel.
     pub features: SceneFeatures,
@@ -576,6 +577,7 @@ impl Renderer {
             texture_buffers,
             light_count: scene.lights.len() as u32,
             emitter_bound: arrays.emitter_bound,
+            emitter_box: arrays.emitter_box,
             stats,
             features,
         })
@@ -668,6 +670,8 @@ impl Renderer {
             light_count: scene.light_count,
             emitter_centre: scene.emitter_bound.0,
             emitter_radius: scene.emitter_bound.1,
+            emitter_min: scene.emitter_box.0,
+            emitter_max: scene.emitter_box.1,
             light_sampling: match s.light_sampling {
                 LightSampling::Area => layout::LIGHT_SAMPLING_AREA,
                 LightSampling::SolidAngle => layout::LIGHT_SAMPLING_SOLID_ANGLE,

@@ -76,6 +76,11 @@ pub struct FrameParams {
     /// that the compiler cannot unroll it.
     pub loop_check: u32,
     pub _pad4: [u32; 2],
+    /// A box around every area light's triangles (min > max: none), for emitter_reach.
+    pub emitter_min: [f32; 3],
+    pub _pad5: u32,
+    pub emitter_max: [f32; 3],
+    pub _pad6: u32,
 }
 
 #[repr(C)]
@@ -298,7 +303,9 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             emitter_centre,
             emitter_radius,
             sampler,
-            loop_check
+            loop_check,
+            emitter_min,
+            emitter_max
         }),
         layout!(BvhNode { left_min, left, left_max, right, right_min, left_light, right_max, right_light }),
         layout!(Vertex { p, normal }),

@@ -25,6 +25,8 @@ pub struct SceneArrays {
     pub light_picks: Vec<layout::LightPick>,
     /// Centre and radius of a sphere around every area light's triangles; radius 0 without any.
     pub emitter_bound: ([f32; 3], f32),
+    /// A box around the same triangles (min, max; min > max where there are none).
+    pub emitter_box: ([f32; 3], [f32; 3]),
     /// Only for scenes with textures (`shaders/textures.wgsl`).
     pub textures: Option<TextureArrays>,
 }
@@ -108,6 +110,15 @@ fn bounding_sphere(points: impl Iterator<Item = Vec3> + Clone) -> (Vec3, f32) {
     let centre = 0.5 * (lo + hi);
     let radius = points.map(|p| p.distance(centre)).fold(0.0f32, f32::max);
     (centre, radius * (1.0 + 1e-5) + 1e-5 * centre.abs().max_element())
+}
+
+/// The box around `points`, grown as bounding_sphere grows its radius, so that rounding cannot put
+/// an emitter's point outside it.
+fn bounding_box(points: impl Iterator<Item = Vec3>) -> (Vec3, Vec3) {
+    let (lo, hi) =
+        points.fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), p| (lo.min(p), hi.max(p)));
+    let pad = 1e-5 * (hi - lo).max_element() + 1e-5 * lo.abs().max(hi.abs()).max_element();
+    (lo - Vec3::splat(pad), hi + Vec3::splat(pad))
 }
 
 pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) -> SceneArrays {
@@ -198,11 +209,13 @@ pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) ->
         })
         .collect();
 
-    let emitter_bound = if emitter_scene_tris.is_empty() {
-        ([0.0; 3], 0.0)
+    let emitter_points = emitter_scene_tris.iter().flat_map(|&t| scene.triangles[t as usize].p);
+    let (emitter_bound, emitter_box) = if emitter_scene_tris.is_empty() {
+        (([0.0; 3], 0.0), ([1.0; 3], [-1.0; 3]))
     } else {
-        let (centre, radius) = bounding_sphere(emitter_scene_tris.iter().flat_map(|&t| scene.triangles[t as usize].p));
-        (centre.to_array(), radius)
+        let (centre, radius) = bounding_sphere(emitter_points.clone());
+        let (lo, hi) = bounding_box(emitter_points);
+        ((centre.to_array(), radius), (lo.to_array(), hi.to_array()))
     };
     let with_uvs = features.textures();
     let (vertices, vertex_uvs, triangles, triangle_lights) = indexed_triangles(scene, bvh, &triangle_light, with_uvs);
@@ -238,6 +251,7 @@ pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) ->
         emitter_tris,
         light_picks,
         emitter_bound,
+        emitter_box,
         textures,
     }
 }
