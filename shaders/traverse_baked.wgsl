@@ -18,10 +18,12 @@ fn trace_closest(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
 // Any hit along origin + t * dir, t in (0, t_max): true when the segment is blocked.
 // Each test returns where it blocks the ray: once all of lavapipe's 8 lanes have returned, the
 // rest is skipped (0.97x the render time of or-ing every test into one flag).
-// `skip` (traverse_bvh.wgsl) is for the BVH; these kernels have none to skip.
+// `skip` (traverse_bvh.wgsl) is for the BVH; these kernels leave out, once and for all, the
+// triangles that no shadow ray can meet (BakedTriangles::mark_blockers: the walls of a room, a
+// planar light).
 fn trace_occluded(origin: vec3f, dir: vec3f, t_max: f32, skip: u32) -> bool {
     let sh = ray_shear(dir);
-    {baked if intersect_triangle(origin, sh, p0, p1, p2, t_max).x > 0.0 { return true; }}
+    {baked blockers: if intersect_triangle(origin, sh, p0, p1, p2, t_max).x > 0.0 { return true; }}
     return false;
 }
 

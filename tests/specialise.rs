@@ -212,3 +212,54 @@ fn kernels_are_cached_per_feature_set_and_strategy() {
     }
     assert_eq!(gpu_scene.features.describe(), "area lights, one light, all diffuse");
 }
+
+/// Shadow rays of a kernel with baked triangles leave out the triangles that no shadow ray can
+/// meet, judged from where the scene's geometry and lights lie (BakedTriangles::mark_blockers):
+/// a wall with every triangle of the scene on one side of it still blocks a point light or a
+/// directional light on the other. The floor behind it stays dark, as it does with the BVH.
+#[test]
+fn a_wall_at_the_edge_of_the_scene_shadows_a_delta_light_beyond_it() {
+    for (name, kind, position) in [
+        ("point", Punctual::Point, Vec3::new(-1.0, 1.0, 0.0)),
+        ("directional", Punctual::Directional, Vec3::new(-1.0, 2.0, 0.0)),
+    ] {
+        let mut g = GltfBuilder::new();
+        let grey = g.material(&MaterialDesc::lambert("grey", Vec3::splat(0.5)));
+        let floor = MeshData::quad(
+            Vec3::new(0., 0., -2.),
+            Vec3::new(2., 0., -2.),
+            Vec3::new(2., 0., 2.),
+            Vec3::new(0., 0., 2.),
+            Vec3::Y,
+        );
+        let wall = MeshData::quad(
+            Vec3::new(0., 0., -2.),
+            Vec3::new(0., 3., -2.),
+            Vec3::new(0., 3., 2.),
+            Vec3::new(0., 0., 2.),
+            Vec3::X,
+        );
+        g.add_mesh("floor", &floor, grey, Mat4::IDENTITY);
+        g.add_mesh("wall", &wall, grey, Mat4::IDENTITY);
+        // Aimed at the floor beyond the wall: a directional light travels along position -> target.
+        g.punctual_light("light", kind, Vec3::splat(5.0), position, Vec3::new(1.0, 0.0, 0.0));
+        g.camera("camera", Vec3::new(1.0, 4.0, 0.5), Vec3::new(1.0, 0.0, 0.0), 60.0);
+        let scene = load(&g, &format!("wall-{name}"));
+        let camera = scene.camera(None).unwrap();
+        let settings = RenderSettings {
+            width: 16,
+            height: 16,
+            spp: 2,
+            strategy: Strategy::Light,
+            light_samples: 1,
+            hide_emitters: true,
+            ..Default::default()
+        };
+        let baked = render(&upload(&scene), &settings, &camera);
+        let bvh_scene = renderer().upload_scene_with(&scene, veach::render::BvhMemory::Storage).unwrap();
+        let bvh = render(&bvh_scene, &settings, &camera);
+        let lit = |out: &veach::RenderOutput| out.mean().iter().filter(|p| p.iter().any(|&v| v > 0.0)).count();
+        assert_eq!(lit(&bvh), 0, "{name}: the wall does not shadow the floor even with the BVH");
+        assert_eq!(lit(&baked), 0, "{name}: the floor behind the wall is lit with baked triangles");
+    }
+}

@@ -11,7 +11,7 @@ use crate::gpu::bindings;
 use crate::gpu::context::GpuContext;
 use crate::gpu::layout::{self, FrameParams};
 use crate::gpu::scene_buffers::{SceneArrays, build_scene_arrays};
-use crate::scene::{Camera, Scene};
+use crate::scene::{Camera, LightKind, Scene};
 use crate::shaders;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -517,8 +517,20 @@ impl Renderer {
         let mut arrays: SceneArrays = build_scene_arrays(scene, &features, &bvh);
         // Where the arrays may be uniform (a CPU adapter, `BvhMemory::Auto`), a small scene's
         // triangles are compiled into the kernel instead (before the arrays are padded).
-        let baked =
-            if capacity > 0 { BakedTriangles::new(&arrays.vertices, &arrays.triangles).map(Arc::new) } else { None };
+        let baked = if capacity > 0 { BakedTriangles::new(&arrays.vertices, &arrays.triangles) } else { None };
+        let baked = baked.map(|mut baked| {
+            let directional = scene.lights.iter().any(|l| matches!(l.kind, LightKind::Directional { .. }));
+            let delta: Vec<[f32; 3]> = scene
+                .lights
+                .iter()
+                .filter_map(|l| match l.kind {
+                    LightKind::Point { position, .. } | LightKind::Spot { position, .. } => Some(position.to_array()),
+                    _ => None,
+                })
+                .collect();
+            baked.mark_blockers(&arrays.triangle_lights, (!directional).then_some(&delta[..]));
+            Arc::new(baked)
+        });
         let uniform = UniformArrays {
             bvh_nodes: pad_for_uniform(&mut arrays.bvh_nodes, capacity),
             vertices: pad_for_uniform(&mut arrays.vertices, self.uniform_capacity::<layout::Vertex>(memory)),

@@ -88,7 +88,8 @@ pub fn render_kernel_source(textures: bool, uniform: UniformArrays, baked: Optio
     source
 }
 
-/// traverse_baked.wgsl with each `{baked STATEMENT}` line written out once per triangle.
+/// traverse_baked.wgsl with each `{baked STATEMENT}` line written out once per triangle, and each
+/// `{baked blockers: STATEMENT}` line once per triangle that can block a shadow ray.
 fn bake_triangles(template: &str, triangles: &BakedTriangles) -> String {
     let mut out = String::new();
     for line in template.lines() {
@@ -96,8 +97,12 @@ fn bake_triangles(template: &str, triangles: &BakedTriangles) -> String {
         match trimmed.strip_prefix("{baked ").and_then(|rest| rest.strip_suffix('}')) {
             Some(statement) => {
                 let indent = &line[..line.len() - trimmed.len()];
+                let (statement, blockers_only) = match statement.strip_prefix("blockers: ") {
+                    Some(s) => (s, true),
+                    None => (statement, false),
+                };
                 out.push_str(indent);
-                out.push_str(&triangles.expand(statement, indent));
+                out.push_str(&triangles.expand(statement, indent, blockers_only));
             }
             None => out.push_str(line),
         }

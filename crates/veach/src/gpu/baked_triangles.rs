@@ -17,12 +17,14 @@ pub const BAKED_TRIANGLES_MAX: usize = 64;
 #[derive(Clone, PartialEq, Eq, Hash)]
 pub struct BakedTriangles {
     corners: Vec<[[u32; 3]; 3]>,
+    /// Whether each triangle can block a shadow ray (`mark_blockers`).
+    blockers: Vec<bool>,
 }
 
-/// The count only: `--stats` prints the kernel key.
+/// The counts only: `--stats` prints the kernel key.
 impl std::fmt::Debug for BakedTriangles {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{} triangles", self.corners.len())
+        write!(f, "{} triangles, {} shadow-ray blockers", self.corners.len(), self.blocker_count())
     }
 }
 
@@ -46,7 +48,68 @@ impl BakedTriangles {
             }
             corners.push(c);
         }
-        Some(BakedTriangles { corners })
+        let blockers = vec![true; corners.len()];
+        Some(BakedTriangles { corners, blockers })
+    }
+
+    /// Leaves out of the shadow rays' tests the triangles that no shadow ray can meet before its
+    /// end. A shadow ray runs from a point of the scene (a point of some triangle, offset off it)
+    /// to a point of an area light or a point or spot light's position, short of it by a margin
+    /// (integrator.wgsl). A segment meets a plane at most once unless it lies in it, where the
+    /// watertight test reports no hit (det = 0). So a triangle cannot block one when
+    /// - every corner of the scene and every delta light lies on one closed side of its plane (a
+    ///   wall of a room: the segment's ends lie on that side), or
+    /// - every point a shadow ray aims at lies in its plane (the one planar light, or a triangle
+    ///   beside it in that plane: the segment meets the plane only at its end, past the margin).
+    ///
+    /// `triangle_lights` is each triangle's area light or NO_LIGHT; `delta_lights` the point and
+    /// spot lights' positions, or None where a directional light sends shadow rays to infinity,
+    /// across any plane (then every triangle stays). "On a side" and "in a plane" allow 1e-6 of
+    /// the scene's largest coordinate, far under the rays' origin offset (32 ULPs, 2e-6).
+    pub fn mark_blockers(&mut self, triangle_lights: &[u32], delta_lights: Option<&[[f32; 3]]>) {
+        let Some(delta_lights) = delta_lights else {
+            self.blockers.iter_mut().for_each(|b| *b = true);
+            return;
+        };
+        let point = |bits: &[u32; 3]| bits.map(|b| f32::from_bits(b) as f64);
+        let delta: Vec<[f64; 3]> = delta_lights.iter().map(|p| p.map(|x| x as f64)).collect();
+        let scene_points: Vec<[f64; 3]> =
+            self.corners.iter().flatten().map(point).chain(delta.iter().copied()).collect();
+        let light_points: Vec<[f64; 3]> = self
+            .corners
+            .iter()
+            .zip(triangle_lights)
+            .filter(|(_, light)| **light != crate::gpu::layout::NO_LIGHT)
+            .flat_map(|(c, _)| c.iter().map(point))
+            .chain(delta.iter().copied())
+            .collect();
+        let largest = scene_points.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
+        let tolerance = 1e-6 * largest;
+        for (corners, blocker) in self.corners.iter().zip(&mut self.blockers) {
+            let [p0, p1, p2] = corners.map(|c| point(&c));
+            let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+            let (e1, e2) = (sub(p1, p0), sub(p2, p0));
+            let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
+            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
+            if len == 0.0 {
+                *blocker = true;
+                continue;
+            }
+            let distance = |p: &[f64; 3]| {
+                let d = sub(*p, p0);
+                (n[0] * d[0] + n[1] * d[1] + n[2] * d[2]) / len
+            };
+            let one_side = scene_points.iter().all(|p| distance(p) >= -tolerance)
+                || scene_points.iter().all(|p| distance(p) <= tolerance);
+            let aimed_at_in_plane =
+                !light_points.is_empty() && light_points.iter().all(|p| distance(p).abs() <= tolerance);
+            *blocker = !(one_side || aimed_at_in_plane);
+        }
+    }
+
+    /// Triangles that shadow rays test.
+    pub fn blocker_count(&self) -> usize {
+        self.blockers.iter().filter(|&&b| b).count()
     }
 
     pub fn len(&self) -> usize {
@@ -57,18 +120,20 @@ impl BakedTriangles {
         self.corners.is_empty()
     }
 
-    /// `template` (a statement naming p0, p1, p2 and triangle) once per triangle, with the corners
-    /// as WGSL literals and the triangle's index, one statement a line.
-    pub fn expand(&self, template: &str, indent: &str) -> String {
+    /// `template` (a statement naming p0, p1, p2 and triangle) once per triangle (once per
+    /// shadow-ray blocker with `blockers_only`), with the corners as WGSL literals and the
+    /// triangle's index, one statement a line.
+    pub fn expand(&self, template: &str, indent: &str, blockers_only: bool) -> String {
         let mut out = String::new();
-        for (i, corners) in self.corners.iter().enumerate() {
+        let kept = self.corners.iter().zip(&self.blockers).enumerate().filter(|(_, (_, b))| **b || !blockers_only);
+        for (i, (corners, _)) in kept {
             let mut line = template.to_string();
             for (name, bits) in ["p0", "p1", "p2"].iter().zip(corners) {
                 let [x, y, z] = bits.map(wgsl_f32);
                 line = replace_word(&line, name, &format!("vec3f({x}, {y}, {z})"));
             }
             line = replace_word(&line, "triangle", &format!("{i}u"));
-            if i > 0 {
+            if !out.is_empty() {
                 out.push_str(indent);
             }
             out.push_str(&line);
@@ -130,12 +195,47 @@ mod tests {
             IndexedTriangle { v0: 2, v1: 1, v2: 0, material: 0 },
         ];
         let baked = BakedTriangles::new(&vertices, &triangles).unwrap();
-        let text = baked.expand("f(p0, p1, p2, triangle, p00);", "  ");
+        let text = baked.expand("f(p0, p1, p2, triangle, p00);", "  ", false);
         assert_eq!(
             text,
             "f(vec3f(0.0f, 0.0f, 0.0f), vec3f(1.0f, 0.0f, 0.0f), vec3f(0.0f, 2.5f, -1.0f), 0u, p00);\n  \
              f(vec3f(0.0f, 2.5f, -1.0f), vec3f(1.0f, 0.0f, 0.0f), vec3f(0.0f, 0.0f, 0.0f), 1u, p00);"
         );
+    }
+
+    /// A floor quad (y = 0) and a wall quad (x = 1) of a room, a quad light just under the ceiling
+    /// (y = 2), and a tile in the room at y = 1 between floor and light.
+    fn room() -> (Vec<Vertex>, Vec<IndexedTriangle>, Vec<u32>) {
+        let quad = |c: [[f32; 3]; 4]| c.map(vertex);
+        let mut vertices = Vec::new();
+        vertices.extend(quad([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 0.0, 1.0], [0.0, 0.0, 1.0]]));
+        vertices.extend(quad([[1.0, 0.0, 0.0], [1.0, 2.0, 0.0], [1.0, 2.0, 1.0], [1.0, 0.0, 1.0]]));
+        vertices.extend(quad([[0.4, 1.9, 0.4], [0.6, 1.9, 0.4], [0.6, 1.9, 0.6], [0.4, 1.9, 0.6]]));
+        vertices.extend(quad([[0.3, 1.0, 0.3], [0.7, 1.0, 0.3], [0.7, 1.2, 0.7], [0.3, 1.2, 0.7]]));
+        let t = |v0, v1, v2| IndexedTriangle { v0, v1, v2, material: 0 };
+        let triangles = (0..4).flat_map(|q| [t(4 * q, 4 * q + 1, 4 * q + 2), t(4 * q, 4 * q + 2, 4 * q + 3)]).collect();
+        let light = |q: u32| if q == 2 { 0 } else { crate::gpu::layout::NO_LIGHT };
+        let lights = (0..4).flat_map(|q| [light(q), light(q)]).collect();
+        (vertices, triangles, lights)
+    }
+
+    #[test]
+    fn walls_and_the_planar_light_block_no_shadow_ray_and_a_tile_in_the_room_does() {
+        let (vertices, triangles, lights) = room();
+        let mut baked = BakedTriangles::new(&vertices, &triangles).unwrap();
+        assert_eq!(baked.blocker_count(), 8, "every triangle blocks until marked");
+        baked.mark_blockers(&lights, Some(&[]));
+        assert_eq!(baked.blockers, [false, false, false, false, false, false, true, true]);
+        // A point light outside the wall (x > 1): rays from it cross the wall's plane.
+        baked.mark_blockers(&lights, Some(&[[1.5, 1.0, 0.5]]));
+        assert_eq!(baked.blockers, [false, false, true, true, true, true, true, true]);
+        // A directional light's shadow rays run to infinity, across any plane.
+        baked.mark_blockers(&lights, None);
+        assert_eq!(baked.blocker_count(), 8);
+        let text = baked.expand("f(triangle);", "", true);
+        assert_eq!(text.lines().count(), 8);
+        baked.mark_blockers(&lights, Some(&[]));
+        assert_eq!(baked.expand("f(triangle);", "", true), "f(6u);\nf(7u);", "blockers keep their BVH order index");
     }
 
     #[test]
