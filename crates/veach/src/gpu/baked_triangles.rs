@@ -65,7 +65,8 @@ impl BakedTriangles {
     /// `triangle_lights` is each triangle's area light or NO_LIGHT; `delta_lights` the point and
     /// spot lights' positions, or None where a directional light sends shadow rays to infinity,
     /// across any plane (then every triangle stays). "On a side" and "in a plane" allow 1e-6 of
-    /// the scene's largest coordinate, far under the rays' origin offset (32 ULPs, 2e-6).
+    /// the scene's largest coordinate, for the rounding of corners meant to lie in one plane:
+    /// geometry that pokes through a wall by less than that is taken as in front of it.
     pub fn mark_blockers(&mut self, triangle_lights: &[u32], delta_lights: Option<&[[f32; 3]]>) {
         let Some(delta_lights) = delta_lights else {
             self.blockers.iter_mut().for_each(|b| *b = true);
