@@ -3,6 +3,8 @@
 //! triangle, whose corners are constants in the WGSL.
 
 use crate::gpu::layout::{IndexedTriangle, Vertex};
+use crate::gpu::shadow_blockers::shadow_blockers;
+use glam::Vec3;
 
 /// The most triangles compiled into a kernel. On Mesa 22.3's lavapipe the Cornell box's 36
 /// triangles took 0.68x the BVH's render time, and its triangles listed two, three and four times
@@ -53,59 +55,15 @@ impl BakedTriangles {
     }
 
     /// Leaves out of the shadow rays' tests the triangles that no shadow ray can meet before its
-    /// end. A shadow ray runs from a point of the scene (a point of some triangle, offset off it)
-    /// to a point of an area light or a point or spot light's position, short of it by a margin
-    /// (integrator.wgsl). A segment meets a plane at most once unless it lies in it, where the
-    /// watertight test reports no hit (det = 0). So a triangle cannot block one when
-    /// - every corner of the scene and every delta light lies on one closed side of its plane (a
-    ///   wall of a room: the segment's ends lie on that side), or
-    /// - every point a shadow ray aims at lies in its plane (the one planar light, or a triangle
-    ///   beside it in that plane: the segment meets the plane only at its end, past the margin).
-    ///
-    /// `triangle_lights` is each triangle's area light or NO_LIGHT; `delta_lights` the point and
-    /// spot lights' positions, or None where a directional light sends shadow rays to infinity,
-    /// across any plane (then every triangle stays). "On a side" and "in a plane" allow 1e-6 of
-    /// the scene's largest coordinate, for the rounding of corners meant to lie in one plane:
-    /// geometry that pokes through a wall by less than that is taken as in front of it.
+    /// end (`gpu::shadow_blockers`). `triangle_lights` is each triangle's area light or
+    /// NO_LIGHT; `delta_lights` the point and spot lights' positions, or None where a
+    /// directional light exists (then every triangle stays).
     pub fn mark_blockers(&mut self, triangle_lights: &[u32], delta_lights: Option<&[[f32; 3]]>) {
-        let Some(delta_lights) = delta_lights else {
-            self.blockers.iter_mut().for_each(|b| *b = true);
-            return;
-        };
-        let point = |bits: &[u32; 3]| bits.map(|b| f32::from_bits(b) as f64);
-        let delta: Vec<[f64; 3]> = delta_lights.iter().map(|p| p.map(|x| x as f64)).collect();
-        let scene_points: Vec<[f64; 3]> =
-            self.corners.iter().flatten().map(point).chain(delta.iter().copied()).collect();
-        let light_points: Vec<[f64; 3]> = self
-            .corners
-            .iter()
-            .zip(triangle_lights)
-            .filter(|(_, light)| **light != crate::gpu::layout::NO_LIGHT)
-            .flat_map(|(c, _)| c.iter().map(point))
-            .chain(delta.iter().copied())
-            .collect();
-        let largest = scene_points.iter().flatten().fold(0.0f64, |m, x| m.max(x.abs()));
-        let tolerance = 1e-6 * largest;
-        for (corners, blocker) in self.corners.iter().zip(&mut self.blockers) {
-            let [p0, p1, p2] = corners.map(|c| point(&c));
-            let sub = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
-            let (e1, e2) = (sub(p1, p0), sub(p2, p0));
-            let n = [e1[1] * e2[2] - e1[2] * e2[1], e1[2] * e2[0] - e1[0] * e2[2], e1[0] * e2[1] - e1[1] * e2[0]];
-            let len = (n[0] * n[0] + n[1] * n[1] + n[2] * n[2]).sqrt();
-            if len == 0.0 {
-                *blocker = true;
-                continue;
-            }
-            let distance = |p: &[f64; 3]| {
-                let d = sub(*p, p0);
-                (n[0] * d[0] + n[1] * d[1] + n[2] * d[2]) / len
-            };
-            let one_side = scene_points.iter().all(|p| distance(p) >= -tolerance)
-                || scene_points.iter().all(|p| distance(p) <= tolerance);
-            let aimed_at_in_plane =
-                !light_points.is_empty() && light_points.iter().all(|p| distance(p).abs() <= tolerance);
-            *blocker = !(one_side || aimed_at_in_plane);
-        }
+        let corners: Vec<[Vec3; 3]> =
+            self.corners.iter().map(|c| c.map(|bits| Vec3::from_array(bits.map(f32::from_bits)))).collect();
+        let emits: Vec<bool> = triangle_lights.iter().map(|&l| l != crate::gpu::layout::NO_LIGHT).collect();
+        let delta: Option<Vec<Vec3>> = delta_lights.map(|d| d.iter().map(|&p| Vec3::from_array(p)).collect());
+        self.blockers = shadow_blockers(&corners, &emits, delta.as_deref());
     }
 
     /// Triangles that shadow rays test.
@@ -204,39 +162,20 @@ mod tests {
         );
     }
 
-    /// A floor quad (y = 0) and a wall quad (x = 1) of a room, a quad light just under the ceiling
-    /// (y = 2), and a tile in the room at y = 1 between floor and light.
-    fn room() -> (Vec<Vertex>, Vec<IndexedTriangle>, Vec<u32>) {
-        let quad = |c: [[f32; 3]; 4]| c.map(vertex);
-        let mut vertices = Vec::new();
-        vertices.extend(quad([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 0.0, 1.0], [0.0, 0.0, 1.0]]));
-        vertices.extend(quad([[1.0, 0.0, 0.0], [1.0, 2.0, 0.0], [1.0, 2.0, 1.0], [1.0, 0.0, 1.0]]));
-        vertices.extend(quad([[0.4, 1.9, 0.4], [0.6, 1.9, 0.4], [0.6, 1.9, 0.6], [0.4, 1.9, 0.6]]));
-        vertices.extend(quad([[0.3, 1.0, 0.3], [0.7, 1.0, 0.3], [0.7, 1.2, 0.7], [0.3, 1.2, 0.7]]));
-        let t = |v0, v1, v2| IndexedTriangle { v0, v1, v2, material: 0 };
-        let triangles = (0..4).flat_map(|q| [t(4 * q, 4 * q + 1, 4 * q + 2), t(4 * q, 4 * q + 2, 4 * q + 3)]).collect();
-        let light = |q: u32| if q == 2 { 0 } else { crate::gpu::layout::NO_LIGHT };
-        let lights = (0..4).flat_map(|q| [light(q), light(q)]).collect();
-        (vertices, triangles, lights)
-    }
-
     #[test]
-    fn walls_and_the_planar_light_block_no_shadow_ray_and_a_tile_in_the_room_does() {
-        let (vertices, triangles, lights) = room();
-        let mut baked = BakedTriangles::new(&vertices, &triangles).unwrap();
-        assert_eq!(baked.blocker_count(), 8, "every triangle blocks until marked");
-        baked.mark_blockers(&lights, Some(&[]));
-        assert_eq!(baked.blockers, [false, false, false, false, false, false, true, true]);
-        // A point light outside the wall (x > 1): rays from it cross the wall's plane.
-        baked.mark_blockers(&lights, Some(&[[1.5, 1.0, 0.5]]));
-        assert_eq!(baked.blockers, [false, false, true, true, true, true, true, true]);
-        // A directional light's shadow rays run to infinity, across any plane.
-        baked.mark_blockers(&lights, None);
-        assert_eq!(baked.blocker_count(), 8);
-        let text = baked.expand("f(triangle);", "", true);
-        assert_eq!(text.lines().count(), 8);
-        baked.mark_blockers(&lights, Some(&[]));
-        assert_eq!(baked.expand("f(triangle);", "", true), "f(6u);\nf(7u);", "blockers keep their BVH order index");
+    fn shadow_rays_test_only_the_blockers_each_under_its_bvh_order_index() {
+        let vertices = [vertex([0.0, 0.0, 0.0]), vertex([1.0, 0.0, 0.0]), vertex([0.0, 1.0, 0.0])];
+        let t = IndexedTriangle { v0: 0, v1: 1, v2: 2, material: 0 };
+        let mut baked = BakedTriangles::new(&vertices, &[t; 4]).unwrap();
+        assert_eq!(baked.blocker_count(), 4, "every triangle blocks until marked");
+        baked.blockers = vec![false, true, false, true];
+        assert_eq!(baked.expand("f(triangle);", "", true), "f(1u);\nf(3u);");
+        assert_eq!(baked.expand("f(triangle);", "", false).lines().count(), 4);
+        // A lone triangle with nothing on either side of its plane: no shadow ray can cross it.
+        baked.mark_blockers(&[crate::gpu::layout::NO_LIGHT; 4], Some(&[]));
+        assert_eq!(baked.blocker_count(), 0);
+        baked.mark_blockers(&[crate::gpu::layout::NO_LIGHT; 4], None);
+        assert_eq!(baked.blocker_count(), 4, "a directional light's shadow rays cross any plane");
     }
 
     #[test]

@@ -7,4 +7,5 @@ pub mod context;
 pub mod layout;
 pub mod light_subtrees;
 pub mod scene_buffers;
+pub mod shadow_blockers;
 pub mod test_kernel;
