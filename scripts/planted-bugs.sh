@@ -11,6 +11,14 @@ export XDG_RUNTIME_DIR="${XDG_RUNTIME_DIR:-$scratch/xdg}"
 mkdir -p -m 700 "$XDG_RUNTIME_DIR"
 
 # file | text to replace | replacement | test binary | test filter | what the bug is
+#
+# Retired: "shadow ray along the sample direction (ls.wi) from the offset origin" in
+# trace_light_sample, once caught by strategies/solid_angle at the touching and grazing lights.
+# Shadow rays now leave out the light they aim at (convex lights' subtrees in the BVH; a planar
+# light's triangles, and the walls it touches, in baked kernels: gpu/shadow_blockers.rs), and the
+# ray aimed a little off the sampled point is blocked by nothing else there: the touching-light
+# scene renders the same image bit for bit with and without it (light sampling, by area and by
+# solid angle, 64 spp). Catching it again needs a non-convex light at a contact edge.
 bugs=(
   "shaders/lights.wgsl|let denom = abs(cos_light) * area;|let denom = area;|sampling|area_light|area pdf converted without cos θ_l"
   "shaders/lights.wgsl|let denom = abs(cos_light) * area;|let denom = area;|analytic|area_and_point|(same bug, seen by the closed form)"
@@ -18,7 +26,6 @@ bugs=(
   "shaders/bsdf.wgsl|return smith_g1(wo.z, alpha) * ggx_d(h, alpha) / (4.0 * wo.z);|return ggx_d(h, alpha) / (4.0 * wo.z);|sampling|ggx_visible|VNDF pdf without the G1 masking term"
   "shaders/bsdf.wgsl|return p_spec * ggx_vndf_pdf(wo, wi, p.alpha) + diffuse;|return 0.5 * ggx_vndf_pdf(wo, wi, p.alpha) + diffuse;|sampling|gltf_brdf|mixture pdf ignores the lobe probability"
   "shaders/integrator.wgsl|r.p_light = select(p_select * ls.pdf, p_select, r.is_delta);|r.p_light = select(p_select * ls.pdf, p_select / f32(frame.light_samples), r.is_delta);|analytic|delta_light|delta light skips the 1/n (Mitsuba 3 #1861)"
-  "shaders/integrator.wgsl|if trace_occluded(origin, shadow_dir, t_max, ls.skip) {|if trace_occluded(origin, ls.wi, t_max, ls.skip) {|strategies|solid_angle|shadow ray along the sample direction from the offset origin"
   "shaders/integrator.wgsl|w = mis_weight(f32(plan.m), d.pdf, f32(plan.n), p_light);|w = mis_weight(f32(plan.n), d.pdf, f32(plan.m), p_light);|strategies|veach_mis|BRDF samples weighted with the counts swapped"
   "shaders/integrator.wgsl|return sum / f32(plan.n);|return sum / f32(total);|strategies|veach_mis|every light's samples averaged over all lights"
   "shaders/sampling.wgsl|(k2 + (k2 * cos_phi - k1 * sin_phi) * cos_alpha) / denom|(k2 + (k2 * cos_phi - k1 * sin_phi)) * cos_alpha / denom|sampling|area_light|Arvo's cos β' with a misplaced parenthesis"

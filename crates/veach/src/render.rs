@@ -520,11 +520,11 @@ impl Renderer {
         let baked = if capacity > 0 { BakedTriangles::new(&arrays.vertices, &arrays.triangles) } else { None };
         let baked = baked.map(|mut baked| {
             let directional = scene.lights.iter().any(|l| matches!(l.kind, LightKind::Directional { .. }));
-            let delta: Vec<[f32; 3]> = scene
+            let delta: Vec<glam::Vec3> = scene
                 .lights
                 .iter()
                 .filter_map(|l| match l.kind {
-                    LightKind::Point { position, .. } | LightKind::Spot { position, .. } => Some(position.to_array()),
+                    LightKind::Point { position, .. } | LightKind::Spot { position, .. } => Some(position),
                     _ => None,
                 })
                 .collect();

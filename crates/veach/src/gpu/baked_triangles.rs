@@ -58,12 +58,11 @@ impl BakedTriangles {
     /// end (`gpu::shadow_blockers`). `triangle_lights` is each triangle's area light or
     /// NO_LIGHT; `delta_lights` the point and spot lights' positions, or None where a
     /// directional light exists (then every triangle stays).
-    pub fn mark_blockers(&mut self, triangle_lights: &[u32], delta_lights: Option<&[[f32; 3]]>) {
+    pub fn mark_blockers(&mut self, triangle_lights: &[u32], delta_lights: Option<&[Vec3]>) {
         let corners: Vec<[Vec3; 3]> =
             self.corners.iter().map(|c| c.map(|bits| Vec3::from_array(bits.map(f32::from_bits)))).collect();
         let emits: Vec<bool> = triangle_lights.iter().map(|&l| l != crate::gpu::layout::NO_LIGHT).collect();
-        let delta: Option<Vec<Vec3>> = delta_lights.map(|d| d.iter().map(|&p| Vec3::from_array(p)).collect());
-        self.blockers = shadow_blockers(&corners, &emits, delta.as_deref());
+        self.blockers = shadow_blockers(&corners, &emits, delta_lights);
     }
 
     /// Triangles that shadow rays test.
