@@ -100,13 +100,16 @@ pub fn light_powers(scene: &Scene) -> Vec<f32> {
         .collect()
 }
 
+/// The smallest box holding `points` (min, max).
+fn point_bounds(points: impl Iterator<Item = Vec3>) -> (Vec3, Vec3) {
+    points.fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), p| (lo.min(p), hi.max(p)))
+}
+
 /// A sphere around `points`: the centre of their bounding box, the farthest point's distance
 /// (not the smallest sphere, but within a factor sqrt(3) of it), grown by a relative 1e-5 so that
 /// rounding never leaves a point outside.
 fn bounding_sphere(points: impl Iterator<Item = Vec3> + Clone) -> (Vec3, f32) {
-    let (lo, hi) = points
-        .clone()
-        .fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), p| (lo.min(p), hi.max(p)));
+    let (lo, hi) = point_bounds(points.clone());
     let centre = 0.5 * (lo + hi);
     let radius = points.map(|p| p.distance(centre)).fold(0.0f32, f32::max);
     (centre, radius * (1.0 + 1e-5) + 1e-5 * centre.abs().max_element())
@@ -115,8 +118,7 @@ fn bounding_sphere(points: impl Iterator<Item = Vec3> + Clone) -> (Vec3, f32) {
 /// The box around `points`, grown as bounding_sphere grows its radius, so that rounding cannot put
 /// an emitter's point outside it.
 fn bounding_box(points: impl Iterator<Item = Vec3>) -> (Vec3, Vec3) {
-    let (lo, hi) =
-        points.fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), p| (lo.min(p), hi.max(p)));
+    let (lo, hi) = point_bounds(points);
     let pad = 1e-5 * (hi - lo).max_element() + 1e-5 * lo.abs().max(hi.abs()).max_element();
     (lo - Vec3::splat(pad), hi + Vec3::splat(pad))
 }
