@@ -53,6 +53,7 @@ bugs=(
   "crates/veach/src/gpu/light_subtrees.rs|let tolerance = 1e-5 * (hi - lo).length();|let tolerance = 1e30 * (hi - lo).length();|stress|shadows_itself|every light taken as convex: a light's own panel no longer shadows it"
   "crates/veach/src/gpu/baked_triangles.rs|for (i, (corners, _)) in kept {|for (i, (corners, _)) in kept.skip(1) {|specialise|compiled_into|baked triangles: the first one left out of the kernel"
   "crates/veach/src/render.rs|baked.mark_blockers(&arrays.triangle_lights, (!directional).then_some(&delta[..]));|let _ = directional; baked.mark_blockers(&arrays.triangle_lights, Some(&delta[..]));|specialise|wall_at_the_edge|baked shadow rays: a wall left out though a directional light shines across it"
+  "crates/veach/src/gpu/baked_triangles.rs|\"hi\", &wgsl_vec3(hi));|\"hi\", &wgsl_vec3(lo));|specialise|triangles_compiled|baked triangles behind boxes: the box collapsed to its lower corner"
   "crates/veach/src/render.rs|baked.mark_blockers(&arrays.triangle_lights, (!directional).then_some(&delta[..]));|let _ = (directional, &delta); baked.mark_blockers(&arrays.triangle_lights, Some(&[]));|specialise|wall_at_the_edge|baked shadow rays: a wall left out though a point light lies beyond it"
 )
 

@@ -160,9 +160,11 @@ fn wavefront_kernels_render_the_megakernels_image() {
 #[test]
 fn triangles_compiled_into_the_kernel_render_the_bvhs_image() {
     let cpu = renderer().gpu.adapter_info.device_type == wgpu::DeviceType::Cpu;
-    let mut baked_scenes = 0;
-    for &name in veach::assets::stress::STRESS_SCENES {
-        let scene = load(&veach::assets::stress::stress_scene(name).unwrap(), &format!("baked-{name}"));
+    let (mut baked_scenes, mut boxed_scenes) = (0, 0);
+    let stress = veach::assets::stress::STRESS_SCENES
+        .iter()
+        .map(|&name| (name, load(&veach::assets::stress::stress_scene(name).unwrap(), &format!("baked-{name}"))));
+    for (name, scene) in stress.chain([("cornell-box", shipped_scene("cornell-box"))]) {
         if scene.triangles.len() > BAKED_TRIANGLES_MAX {
             continue;
         }
@@ -177,23 +179,29 @@ fn triangles_compiled_into_the_kernel_render_the_bvhs_image() {
             seed: 3,
             ..Default::default()
         };
-        let baked = render(&upload(&scene), &settings, &camera);
         let bvh_scene = renderer().upload_scene_with(&scene, veach::render::BvhMemory::Storage).unwrap();
         let bvh = render(&bvh_scene, &settings, &camera);
-        assert_eq!(baked.kernel.baked.is_some(), cpu, "{name}");
         assert!(bvh.kernel.baked.is_none(), "{name}");
-        baked_scenes += baked.kernel.baked.is_some() as u32;
-        if baked.sum != bvh.sum {
-            let dir = output_dir("baked-triangles");
-            for (out, kind) in [(&baked, "baked"), (&bvh, "bvh")] {
-                let path = dir.join(format!("{name}-{kind}.exr"));
-                veach::image_io::write_image(&path, out.width, out.height, &out.mean(), 0.0).unwrap();
+        // As the driver picks (Mesa 22.3: no boxes), then with compact groups behind boxes.
+        let boxed_scene = renderer().upload_scene_with(&scene, veach::render::BvhMemory::AutoWithBoxes).unwrap();
+        for (kind, gpu_scene) in [("baked", upload(&scene)), ("baked-boxed", boxed_scene)] {
+            let baked = render(&gpu_scene, &settings, &camera);
+            assert_eq!(baked.kernel.baked.is_some(), cpu, "{name}");
+            baked_scenes += baked.kernel.baked.is_some() as u32;
+            boxed_scenes += baked.kernel.baked.as_ref().is_some_and(|b| b.boxed_groups() > 0) as u32;
+            if baked.sum != bvh.sum {
+                let dir = output_dir("baked-triangles");
+                for (out, kind) in [(&baked, kind), (&bvh, "bvh")] {
+                    let path = dir.join(format!("{name}-{kind}.exr"));
+                    veach::image_io::write_image(&path, out.width, out.height, &out.mean(), 0.0).unwrap();
+                }
+                panic!("{name}: the {kind} triangles' image differs from the BVH's (both in {})", dir.display());
             }
-            panic!("{name}: the baked triangles' image differs from the BVH's (both in {})", dir.display());
         }
     }
     if cpu {
-        assert!(baked_scenes >= 5, "only {baked_scenes} stress scenes were baked");
+        assert!(baked_scenes >= 10, "only {} scenes were baked", baked_scenes / 2);
+        assert!(boxed_scenes >= 2, "only {boxed_scenes} scenes had groups behind boxes");
     }
 }
 

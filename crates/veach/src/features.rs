@@ -274,12 +274,19 @@ impl AutoExecution {
 
     /// From wgpu's `AdapterInfo::driver` and `driver_info`.
     pub fn for_driver(driver: &str, driver_info: &str) -> AutoExecution {
-        if driver == "llvmpipe" && mesa_major(driver_info).is_some_and(|major| major <= 22) {
+        if runs_branches_masked(driver, driver_info) {
             AutoExecution::WavefrontWhereMasked
         } else {
             AutoExecution::Megakernel
         }
     }
+}
+
+/// Whether the driver runs both sides of every branch under a SIMD mask, whether or not any lane
+/// takes it: lavapipe from Mesa 22 and older (wgpu's `AdapterInfo::driver` and `driver_info`).
+/// Mesa 25's branches around code that no lane of the 8 runs.
+pub fn runs_branches_masked(driver: &str, driver_info: &str) -> bool {
+    driver == "llvmpipe" && mesa_major(driver_info).is_some_and(|major| major <= 22)
 }
 
 /// 22 from "Mesa 22.3.6 (LLVM 15.0.6)".

@@ -5,7 +5,7 @@
 use crate::accumulation::Accumulation;
 use crate::bvh::{build_bvh, build_bvh_fitting};
 use crate::error::{Error, Result};
-use crate::features::{KernelKey, SceneFeatures, UniformArrays};
+use crate::features::{KernelKey, SceneFeatures, UniformArrays, runs_branches_masked};
 use crate::gpu::baked_triangles::BakedTriangles;
 use crate::gpu::bindings;
 use crate::gpu::context::GpuContext;
@@ -417,6 +417,9 @@ pub enum BvhMemory {
     Auto,
     /// A storage buffer, whatever its size (`veach scale`, so that its sizes compare like for like).
     Storage,
+    /// `Auto`, with a baked scene's compact groups of triangles behind boxes whatever the driver
+    /// (`BakedTriangles`): for tests, which Mesa 22.3 would otherwise run without them.
+    AutoWithBoxes,
 }
 
 /// The largest uniform array: 64 KiB, the common `maxUniformBufferRange` (1024 BVH nodes, 4096
@@ -517,7 +520,12 @@ impl Renderer {
         let mut arrays: SceneArrays = build_scene_arrays(scene, &features, &bvh);
         // Where the arrays may be uniform (a CPU adapter, `BvhMemory::Auto`), a small scene's
         // triangles are compiled into the kernel instead (before the arrays are padded).
-        let baked = if capacity > 0 { BakedTriangles::new(&arrays.vertices, &arrays.triangles) } else { None };
+        // Its compact groups go behind boxes where the driver branches around untaken code.
+        let info = &self.gpu.adapter_info;
+        let boxes = memory == BvhMemory::AutoWithBoxes || !runs_branches_masked(&info.driver, &info.driver_info);
+        let group_nodes = if boxes { &bvh.nodes[..] } else { &[] };
+        let baked =
+            if capacity > 0 { BakedTriangles::new(&arrays.vertices, &arrays.triangles, group_nodes) } else { None };
         let baked = baked.map(|mut baked| {
             let directional = scene.lights.iter().any(|l| matches!(l.kind, LightKind::Directional { .. }));
             let delta: Vec<glam::Vec3> = scene

@@ -88,8 +88,10 @@ pub fn render_kernel_source(textures: bool, uniform: UniformArrays, baked: Optio
     source
 }
 
-/// traverse_baked.wgsl with each `{baked STATEMENT}` line written out once per triangle, and each
-/// `{baked blockers: STATEMENT}` line once per triangle that can block a shadow ray.
+/// traverse_baked.wgsl with each `{baked STATEMENT | BOX_TEST}` line written out once per triangle,
+/// and each `{baked blockers: STATEMENT | BOX_TEST}` line once per triangle that can block a shadow
+/// ray; BOX_TEST (naming the box's corners lo and hi) guards each group of nearby triangles
+/// (`BakedTriangles::expand`).
 fn bake_triangles(template: &str, triangles: &BakedTriangles) -> String {
     let mut out = String::new();
     for line in template.lines() {
@@ -101,8 +103,9 @@ fn bake_triangles(template: &str, triangles: &BakedTriangles) -> String {
                     Some(s) => (s, true),
                     None => (statement, false),
                 };
+                let (statement, box_test) = statement.rsplit_once(" | ").expect("a baked line names its box test");
                 out.push_str(indent);
-                out.push_str(&triangles.expand(statement, indent, blockers_only));
+                out.push_str(&triangles.expand(statement, box_test, indent, blockers_only));
             }
             None => out.push_str(line),
         }
@@ -139,7 +142,14 @@ mod tests {
         let vertices = [[f32::MAX, 0.0, -0.0], [1.0e-45, -1.0, 2.5], [0.1, -f32::MAX, 1.0]]
             .map(|p| crate::gpu::layout::Vertex { p, normal: 0 });
         let t = crate::gpu::layout::IndexedTriangle { v0: 0, v1: 1, v2: 2, material: 0 };
-        let baked = BakedTriangles::new(&vertices, &[t, t]).unwrap();
+        // Eight of them, the last four behind a box (a BVH whose second leaf is small).
+        let leaf = |first, min, max| crate::bvh::BvhNode { min, first, max, count: 4 };
+        let nodes = [
+            crate::bvh::BvhNode { min: [-1.0e3; 3], first: 1, max: [1.0e3; 3], count: 0 },
+            leaf(0, [-1.0e3; 3], [1.0e3; 3]),
+            leaf(4, [0.0; 3], [1.0; 3]),
+        ];
+        let baked = BakedTriangles::new(&vertices, &[t; 8], &nodes).unwrap();
         for (textures, uniform, baked) in [
             (false, UniformArrays::default(), None),
             (true, UniformArrays::default(), None),
@@ -150,7 +160,8 @@ mod tests {
             if baked.is_some() {
                 assert!(!source.lines().any(|l| l.trim_start().starts_with("{baked")), "a template line left in");
                 assert!(!source.contains("var<private> bvh_stack"), "a baked kernel with the BVH's traversal");
-                assert_eq!(source.matches("closest_candidate(&hit").count(), 2);
+                assert_eq!(source.matches("closest_candidate(&hit").count(), 8);
+                assert_eq!(source.matches("if intersect_aabb(").count(), 2, "one boxed group in each trace");
             }
             let module = validate_wgsl(&source).unwrap_or_else(|e| panic!("WGSL invalid (textures {textures}):\n{e}"));
             assert!(

@@ -1,7 +1,9 @@
 //! Small scenes' triangles compiled into the kernel (`shaders/traverse_baked.wgsl`): on CPU
 //! adapters a scene of at most `BAKED_TRIANGLES_MAX` triangles needs no BVH: each ray tests every
-//! triangle, whose corners are constants in the WGSL.
+//! triangle, whose corners are constants in the WGSL. Triangles of a compact part of the scene (a
+//! box in a room) are tested only where the ray meets their bounding box (`BakedGroup`).
 
+use crate::bvh::BvhNode;
 use crate::gpu::layout::{IndexedTriangle, Vertex};
 use crate::gpu::shadow_blockers::shadow_blockers;
 use glam::Vec3;
@@ -13,6 +15,24 @@ use glam::Vec3;
 /// (docs/performance.md, "Small scenes compiled into the kernel").
 pub const BAKED_TRIANGLES_MAX: usize = 64;
 
+/// A BVH subtree becomes a group tested behind its box when its box's surface area is at most
+/// this fraction of the scene's and it holds at least `GROUP_MIN_TRIANGLES`: the Cornell box's
+/// two blocks (12 triangles, 0.12 and 0.20 of the room's area) are groups, its walls and light
+/// (2 triangles) are not. A box test costs about a triangle test; fewer triangles would not pay.
+const GROUP_MAX_AREA_FRACTION: f32 = 0.25;
+const GROUP_MIN_TRIANGLES: usize = 4;
+
+/// Triangles tested one after the other, or with `boxed` only where the ray meets their bounding
+/// box: a branch around the group that Mesa 25's lavapipe takes when none of its 8 lanes meets the
+/// box (Mesa 22.3 runs the group under a mask whatever the box says: neutral there).
+/// docs/performance.md, "Baked triangles behind boxes".
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+struct BakedGroup {
+    /// Indices in the BVH's triangle order, ascending.
+    triangles: Vec<usize>,
+    boxed: bool,
+}
+
 /// The corners of a scene's triangles as f32 bit patterns, in the BVH's triangle order (so that
 /// a hit's triangle index means what it means with the BVH). Part of `KernelKey`: each such scene
 /// has a kernel of its own.
@@ -21,19 +41,25 @@ pub struct BakedTriangles {
     corners: Vec<[[u32; 3]; 3]>,
     /// Whether each triangle can block a shadow ray (`mark_blockers`).
     blockers: Vec<bool>,
+    /// The triangles in order, in runs tested alone or behind their box.
+    groups: Vec<BakedGroup>,
 }
 
 /// The counts only: `--stats` prints the kernel key.
 impl std::fmt::Debug for BakedTriangles {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{} triangles, {} shadow-ray blockers", self.corners.len(), self.blocker_count())
+        let boxed: usize = self.groups.iter().filter(|g| g.boxed).map(|g| g.triangles.len()).sum();
+        let (n, groups, blockers) = (self.corners.len(), self.boxed_groups(), self.blocker_count());
+        write!(f, "{n} triangles ({boxed} in {groups} boxed groups), {blockers} shadow-ray blockers")
     }
 }
 
 impl BakedTriangles {
     /// The triangles to compile into the kernel, or None where there are too many (or a corner is
-    /// not finite, which scene loading refuses anyway).
-    pub fn new(vertices: &[Vertex], triangles: &[IndexedTriangle]) -> Option<BakedTriangles> {
+    /// not finite, which scene loading refuses anyway). `nodes` is their BVH (root first), whose
+    /// compact subtrees become groups behind boxes, or empty for none (Mesa 22.3, which would run
+    /// them under a mask anyway: `features::runs_branches_masked`).
+    pub fn new(vertices: &[Vertex], triangles: &[IndexedTriangle], nodes: &[BvhNode]) -> Option<BakedTriangles> {
         if triangles.len() > BAKED_TRIANGLES_MAX {
             return None;
         }
@@ -51,7 +77,18 @@ impl BakedTriangles {
             corners.push(c);
         }
         let blockers = vec![true; corners.len()];
-        Some(BakedTriangles { corners, blockers })
+        let mut groups = Vec::new();
+        if !nodes.is_empty() {
+            collect_groups(nodes, 0, surface_area(&nodes[0]), &mut groups);
+        }
+        groups.sort_by_key(|g| g.triangles[0]);
+        // A BVH that does not cover each triangle once (none for an empty scene): one group.
+        let mut listed: Vec<usize> = groups.iter().flat_map(|g| g.triangles.iter().copied()).collect();
+        listed.sort_unstable();
+        if !listed.iter().copied().eq(0..corners.len()) {
+            groups = vec![BakedGroup { triangles: (0..corners.len()).collect(), boxed: false }];
+        }
+        Some(BakedTriangles { corners, blockers, groups })
     }
 
     /// Leaves out of the shadow rays' tests the triangles that no shadow ray can meet before its
@@ -70,6 +107,11 @@ impl BakedTriangles {
         self.blockers.iter().filter(|&&b| b).count()
     }
 
+    /// Groups of triangles tested behind a box.
+    pub fn boxed_groups(&self) -> usize {
+        self.groups.iter().filter(|g| g.boxed).count()
+    }
+
     pub fn len(&self) -> usize {
         self.corners.len()
     }
@@ -80,25 +122,96 @@ impl BakedTriangles {
 
     /// `template` (a statement naming p0, p1, p2 and triangle) once per triangle (once per
     /// shadow-ray blocker with `blockers_only`), with the corners as WGSL literals and the
-    /// triangle's index, one statement a line.
-    pub fn expand(&self, template: &str, indent: &str, blockers_only: bool) -> String {
+    /// triangle's index, one statement a line. A boxed group's lines go inside
+    /// `if BOX_TEST { ... }`, `box_test` naming its box's corners lo and hi (the box of the
+    /// triangles listed, so of the blockers alone with `blockers_only`).
+    pub fn expand(&self, template: &str, box_test: &str, indent: &str, blockers_only: bool) -> String {
         let mut out = String::new();
-        let kept = self.corners.iter().zip(&self.blockers).enumerate().filter(|(_, (_, b))| **b || !blockers_only);
-        for (i, (corners, _)) in kept {
-            let mut line = template.to_string();
-            for (name, bits) in ["p0", "p1", "p2"].iter().zip(corners) {
-                let [x, y, z] = bits.map(wgsl_f32);
-                line = replace_word(&line, name, &format!("vec3f({x}, {y}, {z})"));
+        for group in &self.groups {
+            let kept: Vec<usize> =
+                group.triangles.iter().copied().filter(|&i| self.blockers[i] || !blockers_only).collect();
+            let (open, inner) = if group.boxed && kept.len() >= GROUP_MIN_TRIANGLES {
+                let (lo, hi) = self.bounds(&kept);
+                let test = replace_word(&replace_word(box_test, "lo", &wgsl_vec3(lo)), "hi", &wgsl_vec3(hi));
+                (Some(format!("if {test} {{")), format!("{indent}    "))
+            } else {
+                (None, indent.to_string())
+            };
+            let mut lines: Vec<String> =
+                kept.iter().map(|&i| format!("{inner}{}", self.statement(template, i))).collect();
+            if let Some(open) = open {
+                lines.insert(0, format!("{indent}{open}"));
+                lines.push(format!("{indent}}}"));
             }
-            line = replace_word(&line, "triangle", &format!("{i}u"));
-            if !out.is_empty() {
-                out.push_str(indent);
+            for line in lines {
+                out.push_str(&line);
+                out.push('\n');
             }
-            out.push_str(&line);
-            out.push('\n');
         }
-        out.trim_end().to_string()
+        // The marker's own indent is the caller's.
+        out.trim_start().trim_end().to_string()
     }
+
+    /// `template` for triangle i: its corners as literals and its index.
+    fn statement(&self, template: &str, i: usize) -> String {
+        let mut line = template.to_string();
+        for (name, bits) in ["p0", "p1", "p2"].iter().zip(&self.corners[i]) {
+            line = replace_word(&line, name, &wgsl_vec3(*bits));
+        }
+        replace_word(&line, "triangle", &format!("{i}u"))
+    }
+
+    /// The bounding box of triangles `which`, as f32 bits (min and max of corners are corners'
+    /// coordinates, so exact).
+    fn bounds(&self, which: &[usize]) -> ([u32; 3], [u32; 3]) {
+        let mut lo = [f32::INFINITY; 3];
+        let mut hi = [f32::NEG_INFINITY; 3];
+        for corner in which.iter().flat_map(|&i| self.corners[i]) {
+            for k in 0..3 {
+                let x = f32::from_bits(corner[k]);
+                lo[k] = lo[k].min(x);
+                hi[k] = hi[k].max(x);
+            }
+        }
+        (lo.map(f32::to_bits), hi.map(f32::to_bits))
+    }
+}
+
+fn surface_area(node: &BvhNode) -> f32 {
+    let [dx, dy, dz] = [0, 1, 2].map(|k| node.max[k] - node.min[k]);
+    dx * dy + dy * dz + dz * dx
+}
+
+/// Walks the BVH from `node`, returning its subtree's triangles: a compact subtree
+/// (`GROUP_MAX_AREA_FRACTION`, `GROUP_MIN_TRIANGLES`) is one boxed group, a leaf that is not is a
+/// group of its own, and a larger inner node leaves its children's groups as they are.
+fn collect_groups(nodes: &[BvhNode], node: usize, root_area: f32, groups: &mut Vec<BakedGroup>) -> Vec<usize> {
+    let Some(&n) = nodes.get(node) else { return Vec::new() };
+    let compact =
+        |count: usize| surface_area(&n) <= GROUP_MAX_AREA_FRACTION * root_area && count >= GROUP_MIN_TRIANGLES;
+    let mut triangles: Vec<usize> = if n.count > 0 {
+        (n.first as usize..(n.first + n.count) as usize).collect()
+    } else {
+        let mut below = Vec::new();
+        let mut triangles = collect_groups(nodes, n.first as usize, root_area, &mut below);
+        triangles.extend(collect_groups(nodes, n.first as usize + 1, root_area, &mut below));
+        if !compact(triangles.len()) {
+            groups.extend(below);
+            return triangles;
+        }
+        triangles
+    };
+    triangles.sort_unstable();
+    if !triangles.is_empty() {
+        groups.push(BakedGroup { triangles: triangles.clone(), boxed: compact(triangles.len()) });
+    }
+    triangles
+}
+
+/// A point as a WGSL vec3f of exact literals.
+fn wgsl_vec3(bits: [u32; 3]) -> String {
+    let [x, y, z] = bits.map(wgsl_f32);
+    format!("vec3f({x}, {y}, {z})")
 }
 
 /// An f32 as a WGSL literal that parses back to the same bits: Rust prints the shortest decimal
@@ -152,8 +265,8 @@ mod tests {
             IndexedTriangle { v0: 0, v1: 1, v2: 2, material: 0 },
             IndexedTriangle { v0: 2, v1: 1, v2: 0, material: 0 },
         ];
-        let baked = BakedTriangles::new(&vertices, &triangles).unwrap();
-        let text = baked.expand("f(p0, p1, p2, triangle, p00);", "  ", false);
+        let baked = BakedTriangles::new(&vertices, &triangles, &[]).unwrap();
+        let text = baked.expand("f(p0, p1, p2, triangle, p00);", "box(lo, hi)", "  ", false);
         assert_eq!(
             text,
             "f(vec3f(0.0f, 0.0f, 0.0f), vec3f(1.0f, 0.0f, 0.0f), vec3f(0.0f, 2.5f, -1.0f), 0u, p00);\n  \
@@ -165,11 +278,11 @@ mod tests {
     fn shadow_rays_test_only_the_blockers_each_under_its_bvh_order_index() {
         let vertices = [vertex([0.0, 0.0, 0.0]), vertex([1.0, 0.0, 0.0]), vertex([0.0, 1.0, 0.0])];
         let t = IndexedTriangle { v0: 0, v1: 1, v2: 2, material: 0 };
-        let mut baked = BakedTriangles::new(&vertices, &[t; 4]).unwrap();
+        let mut baked = BakedTriangles::new(&vertices, &[t; 4], &[]).unwrap();
         assert_eq!(baked.blocker_count(), 4, "every triangle blocks until marked");
         baked.blockers = vec![false, true, false, true];
-        assert_eq!(baked.expand("f(triangle);", "", true), "f(1u);\nf(3u);");
-        assert_eq!(baked.expand("f(triangle);", "", false).lines().count(), 4);
+        assert_eq!(baked.expand("f(triangle);", "box(lo, hi)", "", true), "f(1u);\nf(3u);");
+        assert_eq!(baked.expand("f(triangle);", "box(lo, hi)", "", false).lines().count(), 4);
         // A lone triangle with nothing on either side of its plane: no shadow ray can cross it.
         baked.mark_blockers(&[crate::gpu::layout::NO_LIGHT; 4], Some(&[]));
         assert_eq!(baked.blocker_count(), 0);
@@ -178,11 +291,52 @@ mod tests {
     }
 
     #[test]
+    fn compact_subtrees_are_tested_behind_the_box_of_the_triangles_listed() {
+        // Triangle i lies at x = i; the BVH: root -> (leaf 0..1 big, inner -> (leaf of 4..8,
+        // leaf of 1..4)), the inner node small. Its triangles are listed in order, out of the
+        // leaves' order.
+        let vertices: Vec<Vertex> = (0..8)
+            .flat_map(|i| [[i as f32, 0.0, 0.0], [i as f32, 1.0, 0.0], [i as f32, 0.0, 1.0]])
+            .map(vertex)
+            .collect();
+        let triangles: Vec<IndexedTriangle> =
+            (0..8).map(|i| IndexedTriangle { v0: 3 * i, v1: 3 * i + 1, v2: 3 * i + 2, material: 0 }).collect();
+        let node = |min: [f32; 3], max: [f32; 3], first, count| BvhNode { min, first, max, count };
+        let nodes = [
+            node([-100.0; 3], [100.0; 3], 1, 0),
+            node([-100.0; 3], [100.0; 3], 0, 1),
+            node([1.0, 0.0, 0.0], [7.0, 1.0, 1.0], 3, 0),
+            node([4.0, 0.0, 0.0], [7.0, 1.0, 1.0], 4, 4),
+            node([1.0, 0.0, 0.0], [3.0, 1.0, 1.0], 1, 3),
+        ];
+        let mut baked = BakedTriangles::new(&vertices, &triangles, &nodes).unwrap();
+        assert_eq!(baked.boxed_groups(), 1);
+        let text = baked.expand("f(triangle);", "box(lo, hi)", "", false);
+        let expected = "f(0u);\nif box(vec3f(1.0f, 0.0f, 0.0f), vec3f(7.0f, 1.0f, 1.0f)) {\n    f(1u);\n    f(2u);\n    \
+                        f(3u);\n    f(4u);\n    f(5u);\n    f(6u);\n    f(7u);\n}";
+        assert_eq!(text, expected);
+        // Shadow rays: the box of the blockers alone; fewer than GROUP_MIN_TRIANGLES go unboxed.
+        baked.blockers = vec![true, false, true, true, false, true, false, false];
+        assert_eq!(baked.expand("f(triangle);", "box(lo, hi)", "", true), "f(0u);\nf(2u);\nf(3u);\nf(5u);");
+        baked.blockers[6] = true;
+        assert_eq!(
+            baked.expand("f(triangle);", "box(lo, hi)", "", true),
+            "f(0u);\nif box(vec3f(2.0f, 0.0f, 0.0f), vec3f(6.0f, 1.0f, 1.0f)) {\n    f(2u);\n    f(3u);\n    f(5u);\n    f(6u);\n}"
+        );
+        // Without a BVH, or with one that does not list each triangle once: no groups.
+        assert_eq!(BakedTriangles::new(&vertices, &triangles, &[]).unwrap().boxed_groups(), 0);
+        let short = [nodes[0], nodes[1], nodes[2], nodes[3], node([1.0, 0.0, 0.0], [3.0, 1.0, 1.0], 1, 2)];
+        let baked = BakedTriangles::new(&vertices, &triangles, &short).unwrap();
+        assert_eq!(baked.boxed_groups(), 0);
+        assert_eq!(baked.expand("f(triangle);", "box(lo, hi)", "", false).lines().count(), 8);
+    }
+
+    #[test]
     fn too_many_or_non_finite_triangles_are_not_baked() {
         let vertices = [vertex([0.0; 3]), vertex([1.0, 0.0, 0.0]), vertex([0.0, f32::NAN, 0.0])];
         let t = IndexedTriangle { v0: 0, v1: 1, v2: 1, material: 0 };
-        assert!(BakedTriangles::new(&vertices, &vec![t; BAKED_TRIANGLES_MAX]).is_some());
-        assert!(BakedTriangles::new(&vertices, &vec![t; BAKED_TRIANGLES_MAX + 1]).is_none());
-        assert!(BakedTriangles::new(&vertices, &[IndexedTriangle { v2: 2, ..t }]).is_none());
+        assert!(BakedTriangles::new(&vertices, &vec![t; BAKED_TRIANGLES_MAX], &[]).is_some());
+        assert!(BakedTriangles::new(&vertices, &vec![t; BAKED_TRIANGLES_MAX + 1], &[]).is_none());
+        assert!(BakedTriangles::new(&vertices, &[IndexedTriangle { v2: 2, ..t }], &[]).is_none());
     }
 }
