@@ -51,6 +51,7 @@ bugs=(
   "shaders/lights.wgsl|return point_selection[min(index, MAX_POINT_SELECTION_LIGHTS - 1u)];|return light_picks[index].pdf;|analytic|area_and_point|per-point light choice weighted by the power pdf it did not sample from"
   "shaders/traverse_baked.wgsl|intersect_triangle(origin, sh, p0, p1, p2, (*hit).t);|intersect_triangle(origin, sh, p0, p1, p2, RAY_INF);|specialise|compiled_into|baked closest hit: the last triangle met, not the nearest"
   "crates/veach/src/gpu/light_subtrees.rs|let tolerance = 1e-5 * (hi - lo).length();|let tolerance = 1e30 * (hi - lo).length();|stress|shadows_itself|every light taken as convex: a light's own panel no longer shadows it"
+  "shaders/lights.wgsl|    if SINGLE_LIGHT {\n        return 1.0;|    if SINGLE_LIGHT {\n        return 0.5;|specialise|specialised_kernels|one light's selection probability taken as 1/2 in its kernel"
   "crates/veach/src/gpu/baked_triangles.rs|for (i, (corners, _)) in kept {|for (i, (corners, _)) in kept.skip(1) {|specialise|compiled_into|baked triangles: the first one left out of the kernel"
   "crates/veach/src/render.rs|baked.mark_blockers(&arrays.triangle_lights, (!directional).then_some(&delta[..]));|let _ = directional; baked.mark_blockers(&arrays.triangle_lights, Some(&delta[..]));|specialise|wall_at_the_edge|baked shadow rays: a wall left out though a directional light shines across it"
   "crates/veach/src/gpu/baked_triangles.rs|\"hi\", &wgsl_vec3(hi));|\"hi\", &wgsl_vec3(lo));|specialise|triangles_compiled|baked triangles behind boxes: the box collapsed to its lower corner"

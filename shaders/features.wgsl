@@ -17,6 +17,9 @@ override HAS_MIRRORS: bool = true;
 override HAS_AOVS: bool = true;
 // Lights may be chosen per shading point (frame.light_selection == SELECT_BSDF).
 override POINT_LIGHT_SELECTION: bool = true;
+// The scene has exactly one light: every light index is 0, read as a constant (lights.wgsl's
+// light_at), where lavapipe gathers a record at a run-time index lane by lane.
+override SINGLE_LIGHT: bool = false;
 // Light samples may pick directions by solid angle (frame.light_sampling); false: by area only.
 override SOLID_ANGLE_SAMPLING: bool = true;
 

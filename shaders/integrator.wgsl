@@ -326,7 +326,7 @@ fn glossy_lobe_outsamples_lights(c: ShadingContext) -> bool {
     // Ω_max = 2π r² / dist² >= Ω, which needs no square root (most lights, on rough lobes).
     let m_peak = m_lobe * smith_g1(c.wo.z, c.bsdf.alpha) / (4.0 * c.wo.z * PI * c.bsdf.alpha * c.bsdf.alpha);
     for (var li = 0u; li < frame.light_count; li++) {
-        let light = lights[li];
+        let light = light_at(li);
         if light.kind != LIGHT_AREA {
             continue;
         }

@@ -47,7 +47,7 @@ fn uses_point_selection() -> bool {
 // lobe faces above lights behind or beside it; it needs to be no more than a guess, since
 // prepare_point_selection mixes it with the power shares.
 fn light_importance(index: u32, x: vec3f, shading: Frame, wo: vec3f, bsdf: BsdfParams) -> f32 {
-    let light = lights[index];
+    let light = light_at(index);
     var to_light = -light.direction;
     var dist_sq = 1.0;
     if light.kind != LIGHT_DIRECTIONAL {
@@ -108,6 +108,9 @@ fn select_light_at_point(u: f32) -> DiscretePick {
 // Probability that light `index` is chosen by the frame's light-selection method (at the
 // current shading point, for SELECT_BSDF).
 fn light_selection_pdf(index: u32) -> f32 {
+    if SINGLE_LIGHT {
+        return 1.0;
+    }
     if uses_point_selection() {
         return point_selection[min(index, MAX_POINT_SELECTION_LIGHTS - 1u)];
     }
@@ -163,7 +166,19 @@ fn select_light_by_power(u: f32) -> DiscretePick {
     return alias_pick(b, bucket.alias_prob, b.index, bucket.alias_index);
 }
 
+// Light `index`'s record; with SINGLE_LIGHT, light 0's at a constant index.
+fn light_at(index: u32) -> Light {
+    if SINGLE_LIGHT {
+        return lights[0];
+    }
+    return lights[index];
+}
+
 fn select_light(u: f32) -> DiscretePick {
+    if SINGLE_LIGHT {
+        // What each selection below gives for one light: alias_bucket(u, 1) = (0, u), kept.
+        return DiscretePick(0u, remap_below(u, 1.0));
+    }
     if uses_point_selection() {
         return select_light_at_point(u);
     }
@@ -287,7 +302,7 @@ fn sample_delta_light(light: Light, x: vec3f) -> LightSample {
 
 // Sample light `index` from x; the returned pdf excludes the selection probability.
 fn sample_light(index: u32, x: vec3f, u: vec2f) -> LightSample {
-    let light = lights[index];
+    let light = light_at(index);
     if HAS_AREA_LIGHTS && light.kind == LIGHT_AREA {
         return sample_area_light(index, light, x, u);
     }
@@ -308,11 +323,11 @@ fn area_light_direction_pdf(index: u32, x: vec3f, v: TrianglePositions, y: vec3f
     let n = cross(v.p1 - v.p0, v.p2 - v.p0);
     let omega = spherical_sampling_solid_angle(x, v.p0, v.p1, v.p2);
     if omega > 0.0 {
-        return (0.5 * length(n) / lights[index].area) / omega;
+        return (0.5 * length(n) / light_at(index).area) / omega;
     }
     let d = y - x;
     let cos_l = dot(normalize(n), normalize(d));
-    return area_to_solid_angle_pdf(dot(d, d), cos_l, lights[index].area);
+    return area_to_solid_angle_pdf(dot(d, d), cos_l, light_at(index).area);
 }
 
 // emitter_reach looks at the lights one by one up to this many; past it, at one sphere and one box
@@ -362,7 +377,7 @@ fn emitter_reach(origin: vec3f, dir: vec3f) -> f32 {
     }
     var reach = 0.0;
     for (var li = 0u; li < frame.light_count; li++) {
-        let light = lights[li];
+        let light = light_at(li);
         if light.kind != LIGHT_AREA {
             continue;
         }

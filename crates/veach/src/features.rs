@@ -137,6 +137,8 @@ pub struct KernelKey {
     pub solid_angle: bool,
     /// Lights may be chosen per shading point (`LightSelection::Bsdf`).
     pub point_selection: bool,
+    /// The scene has exactly one light (`SceneFeatures::single_light`).
+    pub single_light: bool,
     /// The texture module (shaders/textures.wgsl and its bindings) is in the kernel...
     pub textures: bool,
     /// ...with lookups of these kinds: base colour, metallic-roughness, emissive, normal.
@@ -162,6 +164,7 @@ impl KernelKey {
             aovs: true,
             solid_angle: true,
             point_selection: true,
+            single_light: false,
             textures: true,
             texture_kinds: [true; 4],
             wavefront: false,
@@ -193,6 +196,7 @@ impl KernelKey {
             point_selection: !features.single_light
                 && settings.light_selection == crate::render::LightSelection::Bsdf
                 && effective_strategy(features, settings).0.samples_lights(),
+            single_light: features.single_light,
             textures: features.textures(),
             texture_kinds: [
                 features.base_color_texture,
@@ -226,6 +230,7 @@ impl KernelKey {
             ("HAS_AOVS", flag(self.aovs)),
             ("SOLID_ANGLE_SAMPLING", flag(self.solid_angle)),
             ("POINT_LIGHT_SELECTION", flag(self.point_selection)),
+            ("SINGLE_LIGHT", flag(self.single_light)),
         ];
         // These exist only in textures.wgsl.
         if self.textures {
