@@ -84,21 +84,29 @@ struct FrameParams {
     _pad8: u32,
 }
 
-// An inner node of the BVH2, 64 bytes (crates/veach/src/gpu/bvh_nodes.rs): its two children's
-// boxes, and references to them: an inner node's index, or a leaf (LEAF_BIT, in traverse_bvh.wgsl)
-// with its triangle count in bits 27-30 and its first triangle of the BVH-ordered `triangles` in
-// bits 0-26. Node 0 is the root.
+// An inner node of the BVH2, 48 bytes (crates/veach/src/gpu/bvh_nodes.rs): its two children's
+// boxes, quantised, and references to them: an inner node's index, or a leaf (LEAF_BIT, in
+// traverse_bvh.wgsl) with its triangle count in bits 27-30 and its first triangle of the
+// BVH-ordered `triangles` in bits 0-26. Node 0 is the root. The boxes lie on a grid of 8-bit
+// cells (Ylitie, Karras & Laine, "Efficient Incoherent Ray Traversal on GPUs Through Compressed
+// Wide BVHs", HPG 2017, §3.1): on axis k a bound is origin[k] + q * 2^e_k, q in 0..=255, rounded
+// outwards by the host so that each box holds its child's (traverse_bvh.wgsl's child_boxes).
 struct BvhNode {
-    left_min: vec3f,
+    origin: vec3f,
+    // Byte k: e_k's biased f32 exponent (the cell size's bits >> 23); byte 3: bit k where axis k
+    // spans more than cells can (coordinates near f32's limits): both children's boxes are
+    // unbounded on it.
+    exponents: u32,
+    // Per axis, four cells: the left child's low (byte 0), the right's low, the left's high, the
+    // right's high (byte 3).
+    bounds: vec3u,
     left: u32,
-    left_max: vec3f,
     right: u32,
-    right_min: vec3f,
     // 1 + the convex light whose triangles alone fill the child's subtree, or 0: shadow rays
     // towards a point of that light skip it (crates/veach/src/gpu/light_subtrees.rs).
     left_light: u32,
-    right_max: vec3f,
     right_light: u32,
+    _pad: u32,
 }
 
 // A vertex in world space, shared by the triangles that index it: its position and its shading

@@ -24,23 +24,61 @@ fn leaf_count(position: u32) -> u32 {
     return (position >> 27u) & 0xfu;
 }
 
+struct ChildBoxes {
+    left_min: vec3f,
+    left_max: vec3f,
+    right_min: vec3f,
+    right_max: vec3f,
+}
+
+// Node i's children's boxes, decoded from their 8-bit cells (layout.wgsl's BvhNode): a bound is
+// origin + q * 2^e, exact in the product (q <= 255, e <= 120), so the host's outward rounding
+// holds whether or not the driver fuses the multiply-add. Only the words used are loaded: 9 a
+// step, where lavapipe gathers each word lane by lane.
+fn child_boxes(i: u32) -> ChildBoxes {
+    let origin = bvh_nodes[i].origin;
+    let exponents = bvh_nodes[i].exponents;
+    let bounds = bvh_nodes[i].bounds;
+    let cell = vec3f(
+        bitcast<f32>((exponents & 0xffu) << 23u),
+        bitcast<f32>(((exponents >> 8u) & 0xffu) << 23u),
+        bitcast<f32>(((exponents >> 16u) & 0xffu) << 23u),
+    );
+    // Per axis: left low, right low, left high, right high.
+    let shifts = vec4u(0u, 8u, 16u, 24u);
+    let x = origin.x + vec4f((vec4u(bounds.x) >> shifts) & vec4u(0xffu)) * cell.x;
+    let y = origin.y + vec4f((vec4u(bounds.y) >> shifts) & vec4u(0xffu)) * cell.y;
+    let z = origin.z + vec4f((vec4u(bounds.z) >> shifts) & vec4u(0xffu)) * cell.z;
+    // Axes no grid spans (coordinates near f32's limits): unbounded for both children.
+    let unbounded = (vec3u(exponents) & vec3u(0x1000000u, 0x2000000u, 0x4000000u)) != vec3u(0u);
+    let big = vec3f(3.4028235e38);
+    return ChildBoxes(
+        select(vec3f(x.x, y.x, z.x), -big, unbounded),
+        select(vec3f(x.z, y.z, z.z), big, unbounded),
+        select(vec3f(x.y, y.y, z.y), -big, unbounded),
+        select(vec3f(x.w, y.w, z.w), big, unbounded),
+    );
+}
+
 // One step from inner node `node`, given the ray's entry distances to its children (RAY_INF where
 // it misses one): the nearer child it enters, with the farther pushed on the stack; the one it
 // enters; or, entering neither, the position on top of the stack, or NO_NODE when that is empty.
-fn next_node(node: BvhNode, tl: f32, tr: f32, sp: ptr<function, u32>) -> u32 {
+fn next_node(node: u32, tl: f32, tr: f32, sp: ptr<function, u32>) -> u32 {
+    let left = bvh_nodes[node].left;
+    let right = bvh_nodes[node].right;
     if tl != RAY_INF && tr != RAY_INF {
         let near_is_left = tl <= tr;
         if *sp < BVH_STACK_SIZE {
-            bvh_stack[*sp] = select(node.left, node.right, near_is_left);
+            bvh_stack[*sp] = select(left, right, near_is_left);
             *sp += 1u;
         }
-        return select(node.right, node.left, near_is_left);
+        return select(right, left, near_is_left);
     }
     if tl != RAY_INF {
-        return node.left;
+        return left;
     }
     if tr != RAY_INF {
-        return node.right;
+        return right;
     }
     if *sp == 0u {
         return NO_NODE;
@@ -65,10 +103,10 @@ fn trace_closest(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
     loop {
         while position < LEAF_BIT {
             // Ordered traversal: visit the nearer child first, push the farther one.
-            let node = bvh_nodes[position];
-            let tl = intersect_aabb(origin, inv_dir, node.left_min, node.left_max, hit.t);
-            let tr = intersect_aabb(origin, inv_dir, node.right_min, node.right_max, hit.t);
-            position = next_node(node, tl, tr, &sp);
+            let b = child_boxes(position);
+            let tl = intersect_aabb(origin, inv_dir, b.left_min, b.left_max, hit.t);
+            let tr = intersect_aabb(origin, inv_dir, b.right_min, b.right_max, hit.t);
+            position = next_node(position, tl, tr, &sp);
         }
         if position == NO_NODE {
             break;
@@ -102,10 +140,10 @@ fn trace_occluded(origin: vec3f, dir: vec3f, t_max: f32, skip: u32) -> bool {
     var position = 0u;
     loop {
         while position < LEAF_BIT {
-            let node = bvh_nodes[position];
-            let tl = select(intersect_aabb(origin, inv_dir, node.left_min, node.left_max, t_max), RAY_INF, node.left_light == skipped);
-            let tr = select(intersect_aabb(origin, inv_dir, node.right_min, node.right_max, t_max), RAY_INF, node.right_light == skipped);
-            position = next_node(node, tl, tr, &sp);
+            let b = child_boxes(position);
+            let tl = select(intersect_aabb(origin, inv_dir, b.left_min, b.left_max, t_max), RAY_INF, bvh_nodes[position].left_light == skipped);
+            let tr = select(intersect_aabb(origin, inv_dir, b.right_min, b.right_max, t_max), RAY_INF, bvh_nodes[position].right_light == skipped);
+            position = next_node(position, tl, tr, &sp);
         }
         if position == NO_NODE {
             break;

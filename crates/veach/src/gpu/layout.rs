@@ -86,15 +86,18 @@ pub struct FrameParams {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct BvhNode {
-    pub left_min: [f32; 3],
+    /// The children's boxes on a grid of 8-bit cells (`gpu::bvh_nodes`): its corner, the cell
+    /// sizes' biased exponents (bytes 0-2) and the axes no grid spans (bits 24-26), and per axis
+    /// the cells of the left low, right low, left high and right high bounds.
+    pub origin: [f32; 3],
+    pub exponents: u32,
+    pub bounds: [u32; 3],
     pub left: u32,
-    pub left_max: [f32; 3],
     pub right: u32,
-    pub right_min: [f32; 3],
     /// 1 + the convex light that alone fills the child's subtree, or 0 (`gpu::light_subtrees`).
     pub left_light: u32,
-    pub right_max: [f32; 3],
     pub right_light: u32,
+    pub _pad: u32,
 }
 
 #[repr(C)]
@@ -307,7 +310,7 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             emitter_min,
             emitter_max
         }),
-        layout!(BvhNode { left_min, left, left_max, right, right_min, left_light, right_max, right_light }),
+        layout!(BvhNode { origin, exponents, bounds, left, right, left_light, right_light }),
         layout!(Vertex { p, normal }),
         layout!(IndexedTriangle { v0, v1, v2, material }),
         layout!(Material {
