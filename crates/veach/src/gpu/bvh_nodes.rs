@@ -194,7 +194,8 @@ fn cell_exponent(origin: f32, top: f32) -> Option<u32> {
 
 /// The children's boxes as the kernel decodes them (`child_boxes` in traverse_bvh.wgsl), for
 /// tests: (left min, left max, right min, right max).
-pub fn decode_child_boxes(node: &BvhNode) -> [[f32; 3]; 4] {
+#[cfg(test)]
+fn decode_child_boxes(node: &BvhNode) -> [[f32; 3]; 4] {
     let mut boxes = [[0.0f32; 3]; 4];
     #[allow(clippy::needless_range_loop)] // k indexes four arrays and shifts by axis
     for k in 0..3 {
