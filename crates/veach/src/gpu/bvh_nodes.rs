@@ -93,13 +93,15 @@ fn axis_grid(bounds: [f32; 4]) -> Option<AxisGrid> {
     let flat = [bounds[0] == bounds[2], bounds[1] == bounds[3]];
     let mut best: Option<(f64, AxisGrid)> = None;
     let first = cell_exponent(low, top)?;
-    for biased in [first, first + 1] {
-        if biased as i32 - 127 > MAX_CELL_EXPONENT {
-            break;
-        }
-        let cell = f32::from_bits(biased << 23);
-        let anchors = [Some(low), flat[0].then_some(bounds[0]), flat[1].then_some(bounds[1])];
-        for anchor in anchors.into_iter().flatten() {
+    let anchors = [Some(low), flat[0].then_some(bounds[0]), flat[1].then_some(bounds[1])];
+    for anchor in anchors.into_iter().flatten() {
+        // The finest cells that fit from this anchor: the lowest bound's always fit `first`; a
+        // flat child's origin may lie up to a cell lower and need cells twice the size.
+        for biased in [first, first + 1] {
+            if biased as i32 - 127 > MAX_CELL_EXPONENT {
+                break;
+            }
+            let cell = f32::from_bits(biased << 23);
             let Some(origin) = anchored_origin(low, anchor, cell) else { continue };
             let cells = [
                 low_cell(origin, cell, bounds[0]),
@@ -116,6 +118,7 @@ fn axis_grid(bounds: [f32; 4]) -> Option<AxisGrid> {
             if best.as_ref().is_none_or(|(b, _)| total < *b) {
                 best = Some((total, AxisGrid { origin, biased_exponent: biased, cells }));
             }
+            break;
         }
     }
     best.map(|(_, grid)| grid)
