@@ -84,29 +84,30 @@ struct FrameParams {
     _pad8: u32,
 }
 
-// An inner node of the BVH2, 48 bytes (crates/veach/src/gpu/bvh_nodes.rs): its two children's
-// boxes, quantised, and references to them: an inner node's index, or a leaf (LEAF_BIT, in
+// A node of the 4-wide BVH, 64 bytes (crates/veach/src/gpu/bvh_nodes.rs): up to four children's
+// boxes, quantised, and references to them: an inner node's index, a leaf (LEAF_BIT, in
 // traverse_bvh.wgsl) with its triangle count in bits 27-30 and its first triangle of the
-// BVH-ordered `triangles` in bits 0-26. Node 0 is the root. The boxes lie on a grid of 8-bit
-// cells (Ylitie, Karras & Laine, "Efficient Incoherent Ray Traversal on GPUs Through Compressed
-// Wide BVHs", HPG 2017, §3.1): on axis k a bound is origin[k] + q * 2^e_k, q in 0..=255, rounded
-// outwards by the host so that each box holds its child's (traverse_bvh.wgsl's child_boxes).
+// BVH-ordered `triangles` in bits 0-26, or NO_CHILD in an empty slot. Node 0 is the root. The
+// boxes lie on a grid of 8-bit cells (Ylitie, Karras & Laine, "Efficient Incoherent Ray Traversal
+// on GPUs Through Compressed Wide BVHs", HPG 2017, §3.1): on axis k a bound is
+// origin[k] + q * 2^e_k, q in 0..=255, rounded outwards by the host so that each box holds its
+// child's (traverse_bvh.wgsl's child_distances).
 struct BvhNode {
     origin: vec3f,
     // Byte k: e_k's biased f32 exponent (the cell size's bits >> 23); byte 3: bit k where axis k
-    // spans more than cells can (coordinates near f32's limits): both children's boxes are
-    // unbounded on it.
+    // spans more than cells can (coordinates near f32's limits): every child is unbounded on it.
     exponents: u32,
-    // Per axis, four cells: the left child's low (byte 0), the right's low, the left's high, the
-    // right's high (byte 3).
-    bounds: vec3u,
-    left: u32,
-    right: u32,
-    // 1 + the convex light whose triangles alone fill the child's subtree, or 0: shadow rays
-    // towards a point of that light skip it (crates/veach/src/gpu/light_subtrees.rs).
-    left_light: u32,
-    right_light: u32,
-    _pad: u32,
+    // Per axis, child i's low cell in byte i.
+    low: vec3u,
+    // 1 + the convex light whose triangles alone fill the subtree of child 0 (bits 0-15) and of
+    // child 1, or 0: shadow rays towards a point of that light skip it
+    // (crates/veach/src/gpu/light_subtrees.rs).
+    lights_01: u32,
+    // Per axis, child i's high cell in byte i.
+    high: vec3u,
+    // The same for children 2 and 3.
+    lights_23: u32,
+    children: vec4u,
 }
 
 // A vertex in world space, shared by the triangles that index it: its position and its shading

@@ -1,4 +1,4 @@
-// traverse.wgsl: what both traversals share, traverse_bvh.wgsl's BVH2 and traverse_baked.wgsl's
+// traverse.wgsl: what both traversals share, traverse_bvh.wgsl's 4-wide BVH and traverse_baked.wgsl's
 // triangles compiled into the kernel: the watertight ray/triangle test, the slab test, and rays'
 // origins offset off surfaces. Each of the two defines trace_closest (camera and BRDF rays) and
 // trace_occluded (shadow rays).

@@ -1,8 +1,8 @@
-// traverse_bvh.wgsl: BVH2 traversal with a closest-hit query (camera and BRDF rays) and an any-hit
-// query (shadow rays), over traverse.wgsl's watertight ray/triangle test. Scenes of at most 64
-// triangles on CPU adapters use traverse_baked.wgsl instead (BAKED_TRIANGLES_MAX).
+// traverse_bvh.wgsl: 4-wide BVH traversal with a closest-hit query (camera and BRDF rays) and an
+// any-hit query (shadow rays), over traverse.wgsl's watertight ray/triangle test. Scenes of at
+// most 64 triangles on CPU adapters use traverse_baked.wgsl instead (BAKED_TRIANGLES_MAX).
 
-const BVH_STACK_SIZE: u32 = 64u;
+const BVH_STACK_SIZE: u32 = 96u;
 
 // The traversal stack, shared by both traversals (a ray's traversal ends before the next begins).
 // At module scope it is zeroed once per invocation, as WGSL requires of every variable; declared
@@ -13,6 +13,7 @@ var<private> bvh_stack: array<u32, BVH_STACK_SIZE>;
 
 // A traversal's position: an inner node's index, or a leaf's reference (LEAF_BIT set; see
 // BvhNode), or NO_NODE (LEAF_BIT set too) once the stack is empty. The stack holds the same.
+// NO_NODE is also an empty child slot's reference (NO_CHILD on the host).
 const LEAF_BIT: u32 = 0x80000000u;
 const NO_NODE: u32 = 0xffffffffu;
 
@@ -24,61 +25,96 @@ fn leaf_count(position: u32) -> u32 {
     return (position >> 27u) & 0xfu;
 }
 
-struct ChildBoxes {
-    left_min: vec3f,
-    left_max: vec3f,
-    right_min: vec3f,
-    right_max: vec3f,
-}
-
-// Node i's children's boxes, decoded from their 8-bit cells (layout.wgsl's BvhNode): a bound is
-// origin + q * 2^e, exact in the product (q <= 255, e <= 120), so the host's outward rounding
-// holds whether or not the driver fuses the multiply-add. Only the words used are loaded: 9 a
-// step, where lavapipe gathers each word lane by lane.
-fn child_boxes(i: u32) -> ChildBoxes {
-    let origin = bvh_nodes[i].origin;
+// The ray's entry distances to node i's four children (RAY_INF where it misses one): traverse.wgsl's
+// slab test on four boxes at once, decoded from their 8-bit cells (layout.wgsl's BvhNode). A bound
+// is origin + q * 2^e, exact in the product (q <= 255, e <= 120), so the host's outward rounding
+// holds whether or not the driver fuses the multiply-add.
+fn child_distances(i: u32, origin: vec3f, inv_dir: vec3f, t_max: f32) -> vec4f {
+    let grid = bvh_nodes[i].origin;
     let exponents = bvh_nodes[i].exponents;
-    let bounds = bvh_nodes[i].bounds;
+    let low = bvh_nodes[i].low;
+    let high = bvh_nodes[i].high;
     let cell = vec3f(
         bitcast<f32>((exponents & 0xffu) << 23u),
         bitcast<f32>(((exponents >> 8u) & 0xffu) << 23u),
         bitcast<f32>(((exponents >> 16u) & 0xffu) << 23u),
     );
-    // Per axis: left low, right low, left high, right high.
     let shifts = vec4u(0u, 8u, 16u, 24u);
-    let x = origin.x + vec4f((vec4u(bounds.x) >> shifts) & vec4u(0xffu)) * cell.x;
-    let y = origin.y + vec4f((vec4u(bounds.y) >> shifts) & vec4u(0xffu)) * cell.y;
-    let z = origin.z + vec4f((vec4u(bounds.z) >> shifts) & vec4u(0xffu)) * cell.z;
-    // Axes no grid spans (coordinates near f32's limits): unbounded for both children.
-    let unbounded = (vec3u(exponents) & vec3u(0x1000000u, 0x2000000u, 0x4000000u)) != vec3u(0u);
-    let big = vec3f(3.4028235e38);
-    return ChildBoxes(
-        select(vec3f(x.x, y.x, z.x), -big, unbounded),
-        select(vec3f(x.z, y.z, z.z), big, unbounded),
-        select(vec3f(x.y, y.y, z.y), -big, unbounded),
-        select(vec3f(x.w, y.w, z.w), big, unbounded),
-    );
+    var lo_x = grid.x + vec4f((vec4u(low.x) >> shifts) & vec4u(0xffu)) * cell.x;
+    var lo_y = grid.y + vec4f((vec4u(low.y) >> shifts) & vec4u(0xffu)) * cell.y;
+    var lo_z = grid.z + vec4f((vec4u(low.z) >> shifts) & vec4u(0xffu)) * cell.z;
+    var hi_x = grid.x + vec4f((vec4u(high.x) >> shifts) & vec4u(0xffu)) * cell.x;
+    var hi_y = grid.y + vec4f((vec4u(high.y) >> shifts) & vec4u(0xffu)) * cell.y;
+    var hi_z = grid.z + vec4f((vec4u(high.z) >> shifts) & vec4u(0xffu)) * cell.z;
+    // Axes no grid spans (coordinates near f32's limits): unbounded for every child.
+    if (exponents >> 24u) != 0u {
+        let big = vec4f(3.4028235e38);
+        let unbounded = (vec3u(exponents) & vec3u(0x1000000u, 0x2000000u, 0x4000000u)) != vec3u(0u);
+        lo_x = select(lo_x, -big, unbounded.x);
+        hi_x = select(hi_x, big, unbounded.x);
+        lo_y = select(lo_y, -big, unbounded.y);
+        hi_y = select(hi_y, big, unbounded.y);
+        lo_z = select(lo_z, -big, unbounded.z);
+        hi_z = select(hi_z, big, unbounded.z);
+    }
+    let t0x = (lo_x - origin.x) * inv_dir.x;
+    let t1x = (hi_x - origin.x) * inv_dir.x;
+    let t0y = (lo_y - origin.y) * inv_dir.y;
+    let t1y = (hi_y - origin.y) * inv_dir.y;
+    let t0z = (lo_z - origin.z) * inv_dir.z;
+    let t1z = (hi_z - origin.z) * inv_dir.z;
+    let tnear = max(max(min(t0x, t1x), min(t0y, t1y)), max(min(t0z, t1z), vec4f(0.0)));
+    // As intersect_aabb: the exit scaled by 1 + 2 * gamma(3) (Ize 2013).
+    let tfar = min(min(max(t0x, t1x), max(t0y, t1y)), min(max(t0z, t1z), vec4f(t_max))) * 1.0000004;
+    return select(vec4f(RAY_INF), tnear, tnear <= tfar);
+}
+
+// Entries (distance's bits, reference) a and b in ascending order of distance: distances are
+// non-negative, so their bits order as they do.
+fn order_pair(a: ptr<function, vec2u>, b: ptr<function, vec2u>) {
+    let swap = (*b).x < (*a).x;
+    let low = select(*a, *b, swap);
+    *b = select(*b, *a, swap);
+    *a = low;
+}
+
+fn push(node: u32, sp: ptr<function, u32>) {
+    if *sp < BVH_STACK_SIZE {
+        bvh_stack[*sp] = node;
+        *sp += 1u;
+    }
 }
 
 // One step from inner node `node`, given the ray's entry distances to its children (RAY_INF where
-// it misses one): the nearer child it enters, with the farther pushed on the stack; the one it
-// enters; or, entering neither, the position on top of the stack, or NO_NODE when that is empty.
-fn next_node(node: u32, tl: f32, tr: f32, sp: ptr<function, u32>) -> u32 {
-    let left = bvh_nodes[node].left;
-    let right = bvh_nodes[node].right;
-    if tl != RAY_INF && tr != RAY_INF {
-        let near_is_left = tl <= tr;
-        if *sp < BVH_STACK_SIZE {
-            bvh_stack[*sp] = select(left, right, near_is_left);
-            *sp += 1u;
-        }
-        return select(right, left, near_is_left);
+// it misses one): the nearest child it enters, with the others it enters pushed on the stack,
+// farthest first; or, entering none, the position on top of the stack, or NO_NODE when that is
+// empty. Ordered traversal: the closest hit found in a near child culls the far ones.
+fn next_node(node: u32, t: vec4f, sp: ptr<function, u32>) -> u32 {
+    let children = bvh_nodes[node].children;
+    let hit = select(vec4f(RAY_INF), t, children != vec4u(NO_NODE));
+    // A sorting network of four (Knuth, TAOCP vol. 3, §5.3.4) on (distance, reference) pairs.
+    let bits = bitcast<vec4u>(hit);
+    var e0 = vec2u(bits.x, children.x);
+    var e1 = vec2u(bits.y, children.y);
+    var e2 = vec2u(bits.z, children.z);
+    var e3 = vec2u(bits.w, children.w);
+    order_pair(&e0, &e1);
+    order_pair(&e2, &e3);
+    order_pair(&e0, &e2);
+    order_pair(&e1, &e3);
+    order_pair(&e1, &e2);
+    let missed = bitcast<u32>(RAY_INF);
+    if e3.x != missed {
+        push(e3.y, sp);
     }
-    if tl != RAY_INF {
-        return left;
+    if e2.x != missed {
+        push(e2.y, sp);
     }
-    if tr != RAY_INF {
-        return right;
+    if e1.x != missed {
+        push(e1.y, sp);
+    }
+    if e0.x != missed {
+        return e0.y;
     }
     if *sp == 0u {
         return NO_NODE;
@@ -102,11 +138,7 @@ fn trace_closest(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
     var position = 0u;
     loop {
         while position < LEAF_BIT {
-            // Ordered traversal: visit the nearer child first, push the farther one.
-            let b = child_boxes(position);
-            let tl = intersect_aabb(origin, inv_dir, b.left_min, b.left_max, hit.t);
-            let tr = intersect_aabb(origin, inv_dir, b.right_min, b.right_max, hit.t);
-            position = next_node(position, tl, tr, &sp);
+            position = next_node(position, child_distances(position, origin, inv_dir, hit.t), &sp);
         }
         if position == NO_NODE {
             break;
@@ -140,10 +172,11 @@ fn trace_occluded(origin: vec3f, dir: vec3f, t_max: f32, skip: u32) -> bool {
     var position = 0u;
     loop {
         while position < LEAF_BIT {
-            let b = child_boxes(position);
-            let tl = select(intersect_aabb(origin, inv_dir, b.left_min, b.left_max, t_max), RAY_INF, bvh_nodes[position].left_light == skipped);
-            let tr = select(intersect_aabb(origin, inv_dir, b.right_min, b.right_max, t_max), RAY_INF, bvh_nodes[position].right_light == skipped);
-            position = next_node(position, tl, tr, &sp);
+            let lights_01 = bvh_nodes[position].lights_01;
+            let lights_23 = bvh_nodes[position].lights_23;
+            let tags = vec4u(lights_01 & 0xffffu, lights_01 >> 16u, lights_23 & 0xffffu, lights_23 >> 16u);
+            let t = child_distances(position, origin, inv_dir, t_max);
+            position = next_node(position, select(t, vec4f(RAY_INF), tags == vec4u(skipped)), &sp);
         }
         if position == NO_NODE {
             break;

@@ -34,10 +34,10 @@ pub struct Bvh {
 /// within the spread (Mesa 22.3: 0.93-0.98×); 7 more bytes per triangle (49 at 1M triangles)
 /// (docs/performance.md, "Smaller BVH leaves").
 impl Bvh {
-    /// Nodes the kernels read: the inner ones, each holding its children's boxes (one for a
-    /// tree that is a single leaf).
+    /// Nodes the kernels read: the wide nodes collapsed from this tree, each holding its
+    /// children's boxes (`gpu::bvh_nodes`).
     pub fn gpu_nodes(&self) -> usize {
-        self.nodes.iter().filter(|n| n.count == 0).count().max(1)
+        crate::gpu::bvh_nodes::wide_node_count(&self.nodes)
     }
 }
 
@@ -98,7 +98,7 @@ fn build_bvh_with(triangles: &[Triangle], params: BvhBuildParams) -> Bvh {
     Bvh { nodes, order: bvh2.primitive_indices, build_time: start.elapsed(), sah_cost }
 }
 
-fn half_area(n: &BvhNode) -> f32 {
+pub(crate) fn half_area(n: &BvhNode) -> f32 {
     let d = [n.max[0] - n.min[0], n.max[1] - n.min[1], n.max[2] - n.min[2]];
     d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
 }

@@ -1,54 +1,86 @@
-//! The BVH as the kernels read it: its inner nodes, each holding its two children's boxes and
-//! references, so that a traversal step loads one node instead of the node and both children.
-//! The boxes are quantised to 8-bit cells of a per-node grid (Ylitie, Karras & Laine 2017, §3.1):
-//! a node is 48 bytes, of which a closest-hit step loads 9 words where unquantised boxes took 14.
-//! `shaders/traverse_bvh.wgsl` reads it.
+//! The BVH as the kernels read it: a 4-wide tree collapsed from the built BVH2 (each wide node
+//! takes up to four of the BVH2's nodes below it as children, Wald et al. 2008's "getting rid
+//! of packets": half the depth), each node holding its children's boxes and references, so that
+//! a traversal step loads one node. The boxes are quantised to 8-bit cells of a per-node grid
+//! (Ylitie, Karras & Laine 2017, §3.1): a node is 64 bytes. `shaders/traverse_bvh.wgsl` reads it.
 
-use crate::bvh::BvhNode as HostNode;
+use crate::bvh::{BvhNode as HostNode, half_area};
 use crate::gpu::layout::BvhNode;
 
-/// A child reference (`BvhNode::left`, `right`): an inner node's index, or a leaf with this bit,
+/// A child reference (`BvhNode::children`): an inner node's index, or a leaf with this bit,
 /// its triangle count in bits 27-30 and its first triangle in bits 0-26.
 pub const LEAF_BIT: u32 = 1 << 31;
 pub const MAX_LEAF_TRIANGLES: u32 = 15;
 pub const MAX_FIRST_TRIANGLE: u32 = (1 << 27) - 1;
+/// An empty child slot: no leaf has this reference, since its triangles would end past
+/// MAX_FIRST_TRIANGLE + 1.
+pub const NO_CHILD: u32 = u32::MAX;
+/// Children per node.
+pub const WIDTH: usize = 4;
+/// Light tags are 16 bits (`BvhNode::lights`); lights past this are never skipped.
+const MAX_LIGHT_TAG: u32 = 0xffff;
 
-/// The GPU nodes of a BVH: its inner nodes, in the same order, root first, each with its two
-/// children's boxes and references, and the children's light tags (`node_lights`, one per host
-/// node: 1 + the convex light that alone fills it, or 0; `gpu::light_subtrees`). A tree that is
-/// a single leaf gets a root over that leaf and an empty one.
+/// The BVH2 nodes (indices into `nodes`) that become the children of the wide node over inner
+/// node `parent`: its two children, then, while there are fewer than four, the inner child of
+/// largest surface area (the one a ray most likely enters) replaced by its two children.
+fn wide_children(nodes: &[HostNode], parent: &HostNode) -> Vec<usize> {
+    let mut children = vec![parent.first as usize, parent.first as usize + 1];
+    while children.len() < WIDTH {
+        let largest = children
+            .iter()
+            .copied()
+            .enumerate()
+            .filter(|&(_, c)| nodes[c].count == 0)
+            .max_by(|&(_, a), &(_, b)| half_area(&nodes[a]).total_cmp(&half_area(&nodes[b])));
+        let Some((slot, c)) = largest else { break };
+        let first = nodes[c].first as usize;
+        children.splice(slot..=slot, [first, first + 1]);
+    }
+    children
+}
+
+/// The BVH2 node under each wide node, in the kernels' order (breadth first, the root first),
+/// and each one's children.
+fn collapse(nodes: &[HostNode]) -> Vec<(usize, Vec<usize>)> {
+    if nodes.len() == 1 {
+        return vec![(0, vec![0])];
+    }
+    let mut wide = vec![(0, wide_children(nodes, &nodes[0]))];
+    let mut i = 0;
+    while i < wide.len() {
+        let inner: Vec<usize> = wide[i].1.iter().copied().filter(|&c| nodes[c].count == 0).collect();
+        wide.extend(inner.into_iter().map(|c| (c, wide_children(nodes, &nodes[c]))));
+        i += 1;
+    }
+    wide
+}
+
+/// How many nodes the kernels read for this BVH2 (`encode_bvh_nodes`'s length).
+pub fn wide_node_count(nodes: &[HostNode]) -> usize {
+    collapse(nodes).len()
+}
+
+/// The GPU nodes of a BVH2: wide nodes, the root first, each with up to four children's boxes,
+/// references and light tags (`node_lights`, one per host node: 1 + the convex light that alone
+/// fills it, or 0; `gpu::light_subtrees`). A tree that is a single leaf gets a root over it.
 pub fn encode_bvh_nodes(nodes: &[HostNode], node_lights: &[u32]) -> Vec<BvhNode> {
     assert_eq!(nodes.len(), node_lights.len(), "a light tag for every node");
-    if let [leaf] = nodes {
-        // The empty leaf (count 0 in its reference) shares the leaf's box: it costs a box test.
-        return vec![encode_inner(leaf, leaf, leaf_reference(leaf), LEAF_BIT)];
+    let wide = collapse(nodes);
+    // Host index -> GPU index of every host node that heads a wide node.
+    let mut wide_index = vec![u32::MAX; nodes.len()];
+    for (i, (host, _)) in wide.iter().enumerate() {
+        wide_index[*host] = i as u32;
     }
-    // Host index -> GPU index of every inner node.
-    let mut inner_index = vec![u32::MAX; nodes.len()];
-    let mut inner = 0;
-    for (i, n) in nodes.iter().enumerate() {
-        if n.count == 0 {
-            inner_index[i] = inner;
-            inner += 1;
-        }
-    }
-    let reference = |i: u32| {
-        let n = &nodes[i as usize];
-        if n.count == 0 {
-            return inner_index[i as usize];
-        }
-        leaf_reference(n)
-    };
-    nodes
-        .iter()
-        .filter(|n| n.count == 0)
-        .map(|n| {
-            let (left, right) = (&nodes[n.first as usize], &nodes[n.first as usize + 1]);
-            BvhNode {
-                left_light: node_lights[n.first as usize],
-                right_light: node_lights[n.first as usize + 1],
-                ..encode_inner(left, right, reference(n.first), reference(n.first + 1))
-            }
+    wide.iter()
+        .map(|(_, children)| {
+            let boxes: Vec<&HostNode> = children.iter().map(|&c| &nodes[c]).collect();
+            let references: Vec<u32> = children
+                .iter()
+                .map(|&c| if nodes[c].count == 0 { wide_index[c] } else { leaf_reference(&nodes[c]) })
+                .collect();
+            let lights: Vec<u32> =
+                children.iter().map(|&c| if node_lights[c] <= MAX_LIGHT_TAG { node_lights[c] } else { 0 }).collect();
+            encode_wide(&boxes, &references, &lights)
         })
         .collect()
 }
@@ -63,18 +95,28 @@ fn leaf_reference(leaf: &HostNode) -> u32 {
     LEAF_BIT | leaf.count << 27 | leaf.first
 }
 
-fn encode_inner(left: &HostNode, right: &HostNode, left_ref: u32, right_ref: u32) -> BvhNode {
-    let mut node = BvhNode { left: left_ref, right: right_ref, ..Default::default() };
+/// A wide node over `children` (one to four), with their references and light tags; the other
+/// slots empty (`NO_CHILD`, cells 0).
+fn encode_wide(children: &[&HostNode], references: &[u32], lights: &[u32]) -> BvhNode {
+    let mut node = BvhNode { children: [NO_CHILD; WIDTH], ..Default::default() };
+    node.children[..children.len()].copy_from_slice(references);
+    let mut tags = [0u32; WIDTH];
+    tags[..lights.len()].copy_from_slice(lights);
+    node.lights_01 = tags[0] | tags[1] << 16;
+    node.lights_23 = tags[2] | tags[3] << 16;
     for k in 0..3 {
-        let bounds = [left.min[k], right.min[k], left.max[k], right.max[k]];
-        match axis_grid(bounds) {
+        let lows: Vec<f32> = children.iter().map(|c| c.min[k]).collect();
+        let highs: Vec<f32> = children.iter().map(|c| c.max[k]).collect();
+        match axis_grid(&lows, &highs) {
             Some(grid) => {
                 node.origin[k] = grid.origin;
                 node.exponents |= grid.biased_exponent << (8 * k);
-                node.bounds[k] = u32::from_le_bytes(grid.cells.map(|c| c as u8));
+                let pack = |cells: &[u32]| cells.iter().enumerate().map(|(i, &c)| c << (8 * i)).sum::<u32>();
+                node.low[k] = pack(&grid.low);
+                node.high[k] = pack(&grid.high);
             }
             None => {
-                node.origin[k] = bounds[0].min(bounds[1]);
+                node.origin[k] = lows.iter().copied().fold(f32::INFINITY, f32::min);
                 node.exponents |= UNBOUNDED_AXIS << k;
             }
         }
@@ -82,19 +124,19 @@ fn encode_inner(left: &HostNode, right: &HostNode, left_ref: u32, right_ref: u32
     node
 }
 
-/// One axis's grid for bounds [left low, right low, left high, right high]: its origin, the
-/// cell size's biased exponent and the four cells, or None where no grid spans them. Of the grids
-/// anchored at the lowest bound or at one that makes a flat child's plane exact (walls, a light
-/// just below a ceiling: a box rounded outwards would give them a thickness that rays ending just
-/// short of them enter), the one with the least slack, flat children's counted twice.
-fn axis_grid(bounds: [f32; 4]) -> Option<AxisGrid> {
-    let low = bounds[0].min(bounds[1]);
-    let top = bounds[2].max(bounds[3]);
-    let flat = [bounds[0] == bounds[2], bounds[1] == bounds[3]];
+/// One axis's grid for the children's bounds: its origin, the cell size's biased exponent and
+/// each child's low and high cells, or None where no grid spans them. Of the grids anchored at the
+/// lowest bound or at one that makes a flat child's plane exact (walls, a light just below a
+/// ceiling: a box rounded outwards would give them a thickness that rays ending just short of them
+/// enter), the one with the least slack, flat children's counted twice.
+fn axis_grid(lows: &[f32], highs: &[f32]) -> Option<AxisGrid> {
+    let low = lows.iter().copied().fold(f32::INFINITY, f32::min);
+    let top = highs.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+    let flat: Vec<bool> = lows.iter().zip(highs).map(|(l, h)| l == h).collect();
     let mut best: Option<(f64, AxisGrid)> = None;
     let first = cell_exponent(low, top)?;
-    let anchors = [Some(low), flat[0].then_some(bounds[0]), flat[1].then_some(bounds[1])];
-    for anchor in anchors.into_iter().flatten() {
+    let anchors = std::iter::once(low).chain(lows.iter().zip(&flat).filter(|&(_, &f)| f).map(|(&l, _)| l));
+    for anchor in anchors {
         // The finest cells that fit from this anchor: the lowest bound's always fit `first`; a
         // flat child's origin may lie up to a cell lower and need cells twice the size.
         for biased in [first, first + 1] {
@@ -103,20 +145,23 @@ fn axis_grid(bounds: [f32; 4]) -> Option<AxisGrid> {
             }
             let cell = f32::from_bits(biased << 23);
             let Some(origin) = anchored_origin(low, anchor, cell) else { continue };
-            let cells = [
-                low_cell(origin, cell, bounds[0]),
-                low_cell(origin, cell, bounds[1]),
-                high_cell(origin, cell, bounds[2]),
-                high_cell(origin, cell, bounds[3]),
-            ];
-            if cells.iter().any(|&c| c > 255) {
+            let mut grid = AxisGrid { origin, biased_exponent: biased, low: [0; WIDTH], high: [0; WIDTH] };
+            for (i, (&l, &h)) in lows.iter().zip(highs).enumerate() {
+                grid.low[i] = low_cell(origin, cell, l);
+                grid.high[i] = high_cell(origin, cell, h);
+            }
+            if grid.high.iter().any(|&c| c > 255) {
                 continue;
             }
-            let slack = |i: usize| (grid_bound(origin, cell, cells[i]) as f64 - bounds[i] as f64).abs();
-            let weight = |child: usize| if flat[child] { 2.0 } else { 1.0 };
-            let total = weight(0) * (slack(0) + slack(2)) + weight(1) * (slack(1) + slack(3));
+            let slack = |q: u32, bound: f32| (grid_bound(origin, cell, q) as f64 - bound as f64).abs();
+            let total: f64 = (0..lows.len())
+                .map(|i| {
+                    let weight = if flat[i] { 2.0 } else { 1.0 };
+                    weight * (slack(grid.low[i], lows[i]) + slack(grid.high[i], highs[i]))
+                })
+                .sum();
             if best.as_ref().is_none_or(|(b, _)| total < *b) {
-                best = Some((total, AxisGrid { origin, biased_exponent: biased, cells }));
+                best = Some((total, grid));
             }
             break;
         }
@@ -128,7 +173,8 @@ fn axis_grid(bounds: [f32; 4]) -> Option<AxisGrid> {
 struct AxisGrid {
     origin: f32,
     biased_exponent: u32,
-    cells: [u32; 4],
+    low: [u32; WIDTH],
+    high: [u32; WIDTH],
 }
 
 /// A grid origin at or below `low` from which `anchor` lies a whole number of cells away, exactly
@@ -195,24 +241,45 @@ fn cell_exponent(origin: f32, top: f32) -> Option<u32> {
     None
 }
 
-/// The children's boxes as the kernel decodes them (`child_boxes` in traverse_bvh.wgsl), for
-/// tests: (left min, left max, right min, right max).
+/// The children's boxes as the kernel decodes them (`child_distances` in traverse_bvh.wgsl), for
+/// tests: (min, max) of each slot.
 #[cfg(test)]
-fn decode_child_boxes(node: &BvhNode) -> [[f32; 3]; 4] {
-    let mut boxes = [[0.0f32; 3]; 4];
-    #[allow(clippy::needless_range_loop)] // k indexes four arrays and shifts by axis
+fn decode_child_boxes(node: &BvhNode) -> [([f32; 3], [f32; 3]); WIDTH] {
+    let mut boxes = [([0.0f32; 3], [0.0f32; 3]); WIDTH];
     for k in 0..3 {
         let cell = f32::from_bits(((node.exponents >> (8 * k)) & 0xff) << 23);
-        let [left_low, right_low, left_high, right_high] = node.bounds[k].to_le_bytes();
         let unbounded = node.exponents & (UNBOUNDED_AXIS << k) != 0;
         let bound =
             |q: u8, sign: f32| if unbounded { sign * f32::MAX } else { grid_bound(node.origin[k], cell, q as u32) };
-        boxes[0][k] = bound(left_low, -1.0);
-        boxes[1][k] = bound(left_high, 1.0);
-        boxes[2][k] = bound(right_low, -1.0);
-        boxes[3][k] = bound(right_high, 1.0);
+        let (low, high) = (node.low[k].to_le_bytes(), node.high[k].to_le_bytes());
+        for (i, b) in boxes.iter_mut().enumerate() {
+            b.0[k] = bound(low[i], -1.0);
+            b.1[k] = bound(high[i], 1.0);
+        }
     }
     boxes
+}
+
+/// The most entries the kernels' traversal stack can hold on this tree: at each node it descends
+/// into one child and pushes at most the others, so a leaf's bound is the sum over its ancestors
+/// of their children less one (`BVH_STACK_SIZE` in traverse_bvh.wgsl must not be less).
+#[cfg(test)]
+fn stack_bound(nodes: &[BvhNode]) -> u32 {
+    let mut deepest = 0;
+    let mut todo = vec![(0u32, 0u32)];
+    while let Some((node, pushed)) = todo.pop() {
+        let children: Vec<u32> = nodes[node as usize].children.into_iter().filter(|&c| c != NO_CHILD).collect();
+        let depth = pushed + children.len() as u32 - 1;
+        deepest = deepest.max(depth);
+        todo.extend(children.into_iter().filter(|&c| c & LEAF_BIT == 0).map(|c| (c, depth)));
+    }
+    deepest
+}
+
+/// Slot i's light tag.
+#[cfg(test)]
+fn light_tag(node: &BvhNode, i: usize) -> u32 {
+    [node.lights_01, node.lights_23][i / 2] >> (16 * (i % 2)) & 0xffff
 }
 
 #[cfg(test)]
@@ -223,7 +290,7 @@ mod tests {
     use glam::Vec3;
 
     #[test]
-    fn every_inner_node_holds_its_childrens_boxes_and_references() {
+    fn every_wide_node_holds_its_childrens_boxes_references_and_tags() {
         let tris: Vec<Triangle> = (0..2000)
             .map(|i| {
                 let o = Vec3::new((i as f32 * 7.31).sin(), (i as f32 * 3.17).cos(), (i as f32 * 1.13).sin()) * 10.0;
@@ -234,34 +301,80 @@ mod tests {
         let bvh = build_bvh(&tris);
         let lights: Vec<u32> = (0..bvh.nodes.len() as u32).map(|i| i % 3).collect();
         let gpu = encode_bvh_nodes(&bvh.nodes, &lights);
-        let inner: Vec<&HostNode> = bvh.nodes.iter().filter(|n| n.count == 0).collect();
-        assert_eq!(gpu.len(), inner.len());
         assert_eq!(gpu.len(), bvh.gpu_nodes());
-        assert!(std::ptr::eq(inner[0], &bvh.nodes[0]), "the root comes first");
-        for (n, g) in inner.iter().zip(&gpu) {
-            let children = [&bvh.nodes[n.first as usize], &bvh.nodes[n.first as usize + 1]];
-            assert_eq!([g.left_light, g.right_light], [lights[n.first as usize], lights[n.first as usize + 1]]);
-            let [left_min, left_max, right_min, right_max] = decode_child_boxes(g);
-            let boxes = [(left_min, left_max), (right_min, right_max)];
-            for ((child, (min, max)), reference) in children.into_iter().zip(boxes).zip([g.left, g.right]) {
-                assert_box_holds(min, max, child, n);
+        // Walk the wide tree from the root: every BVH2 leaf is reached exactly once, through a
+        // box that holds it, and every wide node exactly once.
+        let mut leaves_seen = vec![0u32; bvh.nodes.len()];
+        let mut nodes_seen = vec![0u32; gpu.len()];
+        let mut stack = vec![(0u32, 0usize)]; // (GPU node, host node it stands for)
+        let mut slots_used = 0;
+        while let Some((g, host)) = stack.pop() {
+            nodes_seen[g as usize] += 1;
+            let node = &gpu[g as usize];
+            let parent = &bvh.nodes[host];
+            let children = wide_children(&bvh.nodes, parent);
+            assert!((2..=WIDTH).contains(&children.len()));
+            slots_used += children.len();
+            let boxes = decode_child_boxes(node);
+            for (i, &reference) in node.children.iter().enumerate() {
+                let Some(&c) = children.get(i) else {
+                    assert_eq!(reference, NO_CHILD, "slot {i} of node {g}");
+                    continue;
+                };
+                let child = &bvh.nodes[c];
+                assert_box_holds(boxes[i].0, boxes[i].1, child, parent);
+                assert_eq!(light_tag(node, i), lights[c], "slot {i} of node {g}");
                 if child.count > 0 {
                     assert_eq!(reference, LEAF_BIT | child.count << 27 | child.first);
+                    leaves_seen[c] += 1;
                 } else {
-                    assert!(std::ptr::eq(inner[reference as usize], child), "reference {reference} names another node");
+                    stack.push((reference, c));
                 }
             }
         }
+        assert!(nodes_seen.iter().all(|&n| n == 1), "a wide node unreached or reached twice");
+        for (n, seen) in bvh.nodes.iter().zip(&leaves_seen) {
+            assert_eq!(*seen, (n.count > 0) as u32, "{n:?}");
+        }
+        // Four-wide in the main: at least 3 children a node on average.
+        assert!(slots_used as f64 >= 3.0 * gpu.len() as f64, "{slots_used} slots over {} nodes", gpu.len());
     }
 
     #[test]
-    fn a_single_leaf_gets_a_root_over_it_and_an_empty_leaf() {
+    fn the_traversal_stack_holds_a_million_triangle_trees_worst_case() {
+        // `veach scale`'s largest scene: a sphere of a million triangles (the Cornell box around it
+        // adds a few nodes near the root).
+        let stacks = 500;
+        let m = crate::assets::gltf_writer::MeshData::sphere(Vec3::new(1.8, 3.6, 2.0), 0.8, 2 * stacks, stacks);
+        let tris: Vec<Triangle> = m
+            .indices
+            .chunks(3)
+            .map(|c| Triangle {
+                p: [0, 1, 2].map(|k| m.positions[c[k] as usize]),
+                n: [Vec3::Z; 3],
+                uv: Default::default(),
+                material: 0,
+            })
+            .collect();
+        let bvh = build_bvh(&tris);
+        let bound = stack_bound(&encode_bvh_nodes(&bvh.nodes, &vec![0; bvh.nodes.len()]));
+        let source = include_str!("../../../../shaders/traverse_bvh.wgsl");
+        let size: u32 = source
+            .split_once("const BVH_STACK_SIZE: u32 = ")
+            .and_then(|(_, rest)| rest.split_once("u;"))
+            .and_then(|(n, _)| n.parse().ok())
+            .expect("BVH_STACK_SIZE in traverse_bvh.wgsl");
+        // 74 measured: 10 to spare for the box's nodes above the sphere and other builds.
+        assert!(bound + 10 <= size, "{} triangles may need {bound} stack entries of {size}", tris.len());
+    }
+
+    #[test]
+    fn a_single_leaf_gets_a_root_over_it() {
         let leaf = HostNode { min: [0.0; 3], first: 0, max: [1.0; 3], count: 3 };
         let gpu = encode_bvh_nodes(&[leaf], &[0]);
         assert_eq!(gpu.len(), 1);
-        assert_eq!((gpu[0].left, gpu[0].right), (LEAF_BIT | 3 << 27, LEAF_BIT));
-        let [left_min, left_max, ..] = decode_child_boxes(&gpu[0]);
-        assert_eq!((left_min, left_max), ([0.0; 3], [1.0; 3]), "a box on the grid's cells is exact");
+        assert_eq!(gpu[0].children, [LEAF_BIT | 3 << 27, NO_CHILD, NO_CHILD, NO_CHILD]);
+        assert_eq!(decode_child_boxes(&gpu[0])[0], ([0.0; 3], [1.0; 3]), "a box on the grid's cells is exact");
     }
 
     /// A decoded child box holds the child's box, and is not much larger: at most four of the
@@ -289,10 +402,9 @@ mod tests {
         // light enter), on x and z its box holds it.
         let light = HostNode { min: [2.13, 5.483, 2.27], first: 0, max: [3.43, 5.483, 3.32], count: 2 };
         let room = HostNode { min: [0.0, 0.0, 0.0], first: 2, max: [5.56, 5.488, 5.592], count: 4 };
-        for (left, right) in [(&light, &room), (&room, &light)] {
-            let node = encode_inner(left, right, 0, 0);
-            let [lmin, lmax, rmin, rmax] = decode_child_boxes(&node);
-            let (min, max) = if std::ptr::eq(left, &light) { (lmin, lmax) } else { (rmin, rmax) };
+        for (children, slot) in [([&light, &room], 0), ([&room, &light], 1)] {
+            let node = encode_wide(&children, &[0, 0], &[0, 0]);
+            let (min, max) = decode_child_boxes(&node)[slot];
             assert_eq!((min[1], max[1]), (5.483, 5.483), "the light's plane");
             assert!(min[0] <= 2.13 && max[0] >= 3.43 && min[2] <= 2.27 && max[2] >= 3.32);
         }
@@ -323,8 +435,8 @@ mod tests {
                 max: std::array::from_fn(|k| lmax[k].max(rmax[k])),
                 count: 0,
             };
-            let node = encode_inner(&left, &right, 0, 0);
-            let [a, b, c, d] = decode_child_boxes(&node);
+            let node = encode_wide(&[&left, &right], &[0, 0], &[0, 0]);
+            let [(a, b), (c, d), ..] = decode_child_boxes(&node);
             for (min, max, child) in [(a, b, &left), (c, d, &right)] {
                 for k in 0..3 {
                     assert!(

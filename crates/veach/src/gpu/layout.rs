@@ -88,16 +88,17 @@ pub struct FrameParams {
 pub struct BvhNode {
     /// The children's boxes on a grid of 8-bit cells (`gpu::bvh_nodes`): its corner, the cell
     /// sizes' biased exponents (bytes 0-2) and the axes no grid spans (bits 24-26), and per axis
-    /// the cells of the left low, right low, left high and right high bounds.
+    /// the cells of each child's low and high bound (byte i: child i).
     pub origin: [f32; 3],
     pub exponents: u32,
-    pub bounds: [u32; 3],
-    pub left: u32,
-    pub right: u32,
-    /// 1 + the convex light that alone fills the child's subtree, or 0 (`gpu::light_subtrees`).
-    pub left_light: u32,
-    pub right_light: u32,
-    pub _pad: u32,
+    pub low: [u32; 3],
+    /// 1 + the convex light that alone fills child 0's (bits 0-15) and child 1's subtree, or 0
+    /// (`gpu::light_subtrees`).
+    pub lights_01: u32,
+    pub high: [u32; 3],
+    pub lights_23: u32,
+    /// Up to four child references (`gpu::bvh_nodes::LEAF_BIT`), empty slots `NO_CHILD`.
+    pub children: [u32; 4],
 }
 
 #[repr(C)]
@@ -310,7 +311,7 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             emitter_min,
             emitter_max
         }),
-        layout!(BvhNode { origin, exponents, bounds, left, right, left_light, right_light }),
+        layout!(BvhNode { origin, exponents, low, lights_01, high, lights_23, children }),
         layout!(Vertex { p, normal }),
         layout!(IndexedTriangle { v0, v1, v2, material }),
         layout!(Material {

@@ -1,5 +1,5 @@
 //! Shadow rays towards a convex light skip the BVH subtrees that only its triangles fill (tagged
-//! in the GPU nodes, `BvhNode::left_light`, `right_light`). A shadow ray from x to a
+//! in the GPU nodes, `BvhNode::lights_01`, `lights_23`). A shadow ray from x to a
 //! point y on a light whose triangle at y faces x cannot meet that light anywhere else when the
 //! light's triangles bound a convex body (each lies in a plane with all of the light behind it):
 //! the segment lies in front of y's plane, the light behind it. Traversal then need not descend
@@ -177,7 +177,8 @@ mod tests {
         assert_eq!(arrays.lights.len(), 4);
         for (l, light) in arrays.lights.iter().enumerate() {
             assert_eq!(light.convex, 1, "light {l}");
-            let tags = arrays.bvh_nodes.iter().flat_map(|n| [n.left_light, n.right_light]);
+            let tags =
+                arrays.bvh_nodes.iter().flat_map(|n| [n.lights_01, n.lights_23]).flat_map(|w| [w & 0xffff, w >> 16]);
             assert!(tags.filter(|&t| t == l as u32 + 1).count() > 0, "no subtree tagged with light {l}");
         }
     }
