@@ -53,7 +53,7 @@ bugs=(
   "crates/veach/src/gpu/light_subtrees.rs|let tolerance = 1e-5 * (hi - lo).length();|let tolerance = 1e30 * (hi - lo).length();|stress|shadows_itself|every light taken as convex: a light's own panel no longer shadows it"
   "shaders/lights.wgsl|    if SINGLE_LIGHT {\n        return 1.0;|    if SINGLE_LIGHT {\n        return 0.5;|specialise|specialised_kernels|one light's selection probability taken as 1/2 in its kernel"
   "shaders/traverse_bvh.wgsl|var hi_z = grid.z + vec4f((vec4u(high.z) >> shifts)|var hi_z = grid.z + vec4f((vec4u(low.z) >> shifts)|specialise|triangles_compiled|quantised BVH: the children's high z decoded from their low cells"
-  "shaders/traverse_bvh.wgsl|push(e1.y, sp);|let _ = e1;|specialise|triangles_compiled|4-wide BVH: the second-nearest child entered never visited"
+  "shaders/traverse_bvh.wgsl|for (var k = entered; k > 0u; k--) {|for (var k = entered; k > 1u; k--) {|specialise|triangles_compiled|4-wide BVH: the second-nearest child entered never visited"
   "shaders/traverse_bvh.wgsl|select(t, vec4f(RAY_INF), tags == vec4u(skipped))|select(t, vec4f(RAY_INF), tags.yxwz == vec4u(skipped))|specialise|triangles_compiled|4-wide BVH: shadow rays skip the sibling of their light's subtree"
   "crates/veach/src/gpu/bvh_nodes.rs|children.splice(slot..=slot, [first, first + 1]);|children.splice(slot..=slot, [first, first]);|specialise|triangles_compiled|4-wide BVH: a collapsed node's second child lost"
   "crates/veach/src/gpu/bvh_nodes.rs|while q < 255 && grid_bound(origin, cell, q + 1) <= low {|while q < 255 && grid_bound(origin, cell, q) <= low {|specialise|triangles_compiled|quantised BVH: low bounds rounded one cell inwards"
