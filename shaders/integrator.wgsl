@@ -191,7 +191,7 @@ fn light_sample_value(c: ShadingContext, s: LightSampleEval, plan: SamplePlan) -
     return (s.g - s.g_glossy + w * s.g_glossy) / s.p_light;
 }
 
-// How many sampler requests estimate_light_samples takes.
+// How many light samples, and so sampler requests, estimate_light_samples takes.
 fn light_sample_requests(plan: SamplePlan) -> u32 {
     if frame.light_count == 0u || plan.n == 0u {
         return 0u;
@@ -202,11 +202,11 @@ fn light_sample_requests(plan: SamplePlan) -> u32 {
 // The plan's light samples: n of each light (SELECT_EACH), or n of one light chosen per sample.
 // One loop, so the shadow-ray traversal is inlined once.
 fn estimate_light_samples(c: ShadingContext, plan: SamplePlan, stream: ptr<function, SampleStream>, rays: ptr<function, u32>) -> vec3f {
-    if frame.light_count == 0u || plan.n == 0u {
+    let total = light_sample_requests(plan);
+    if total == 0u {
         return vec3f(0.0);
     }
     let each = frame.light_selection == SELECT_EACH;
-    let total = select(plan.n, plan.n * frame.light_count, each);
     var sum = vec3f(0.0);
     for (var k = 0u; k < total; k++) {
         var li = k / plan.n;
