@@ -35,6 +35,9 @@ const TEST_TEXTURE_LOOKUP: u32 = 30u;
 // test_in[i] = (TEXCOORD_0.xy, TEXCOORD_1.xy): the test material with its textures applied,
 // out[2i] = (base colour, metallic), out[2i + 1] = (roughness, emissive texture rgb).
 const TEST_TEXTURED_MATERIAL: u32 = 31u;
+// test_in[2i] = (origin, t_max), test_in[2i + 1] = (direction, 0): out[i] = (closest hit's t or -1,
+// 1 if the segment is blocked, 0, 0), from the kernel's own traversal (trace_closest, trace_occluded).
+const TEST_TRACE: u32 = 40u;
 
 // pdf with which the light strategy picks direction wi at `point` on light test.light_index,
 // found the way a BRDF sample finds it: by tracing the ray to the emitter.
@@ -147,6 +150,13 @@ fn run_test(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) 
             let m = textured_material(test.material, test_in[i]);
             test_out[2u * i] = vec4f(m.base_color, m.metallic);
             test_out[2u * i + 1u] = vec4f(m.roughness, emission_texture(test.material, test_in[i]));
+        }
+        case TEST_TRACE: {
+            let o = test_in[2u * i];
+            let d = test_in[2u * i + 1u].xyz;
+            let hit = trace_closest(o.xyz, d, o.w);
+            let blocked = trace_occluded(o.xyz, d, o.w, 0u);
+            test_out[i] = vec4f(select(-1.0, hit.t, hit.found), select(0.0, 1.0, blocked), 0.0, 0.0);
         }
         default: {}
     }

@@ -289,3 +289,53 @@ fn a_light_that_shadows_itself_is_not_skipped() {
         );
     }
 }
+
+/// A tree whose traversal stack the kernel's default size would not hold: 400 small triangles in
+/// the planes x = 1.1^k (k = -200 … 199), each 1/100 of its distance across, which obvhs builds
+/// into a chain (the biggest triangle beside the rest at every level). A ray along the chain
+/// enters every box it passes and pushes the triangles beside its path, one level's worth at a
+/// time; near its end it enters the boxes of triangles it misses (their hypotenuse passes
+/// between it and their corner), and must pop what it pushed deepest. Every ray's closest hit
+/// and occlusion match a brute-force test of all 400 triangles.
+#[test]
+fn rays_through_a_tree_deeper_than_the_default_stack_find_their_hits() {
+    use glam::Vec3;
+    use veach::gpu::layout::{FrameParams, TestParams};
+    use veach::gpu::test_kernel::{TestKernel, routine};
+    let plane = |k: i32| 1.1f32.powi(k);
+    let mut scene = veach::Scene { materials: vec![Default::default()], ..Default::default() };
+    for k in -200..200 {
+        let (x, e) = (plane(k), plane(k) * 0.01);
+        let p = [Vec3::new(x, 0.0, 0.0), Vec3::new(x, e, 0.0), Vec3::new(x, 0.0, e)];
+        scene.triangles.push(veach::scene::Triangle { p, n: [Vec3::X; 3], uv: Default::default(), material: 0 });
+    }
+    let gpu_scene = upload(&scene);
+    assert!(
+        gpu_scene.bvh_stack_bound() > veach::gpu::bvh_nodes::BVH_STACK_SIZE,
+        "the tree is not deep enough to test this: bound {}",
+        gpu_scene.bvh_stack_bound()
+    );
+    // Rays along +x from x = -1 at y = z = d: they hit triangle k where 2d <= e_k (the triangle is
+    // y + z <= e_k in its plane) and enter its box where d <= e_k.
+    let mut input = Vec::new();
+    let mut expected = Vec::new();
+    for first in (-190..190).step_by(7) {
+        let d = plane(first) * 0.01 * 0.3;
+        input.push([-1.0, d, d, f32::MAX]);
+        input.push([1.0, 0.0, 0.0, 0.0]);
+        let hit = (-200..200).find(|&k| 2.0 * d <= plane(k) * 0.01).map(|k| plane(k) + 1.0);
+        expected.push((first, hit));
+    }
+    let kernel = TestKernel::for_scene(renderer(), &gpu_scene).unwrap_or_else(|e| panic!("{e}"));
+    let params = TestParams { routine: routine::TRACE, count: expected.len() as u32, ..Default::default() };
+    let out = kernel.run(&gpu_scene, &FrameParams::default(), &params, &input, 1).unwrap();
+    let mut wrong = Vec::new();
+    for ((first, hit), got) in expected.iter().zip(&out) {
+        let want = hit.expect("every ray hits a triangle");
+        // The watertight test's t is within a few ulps of the plane's distance.
+        if (got[0] - want).abs() > 1e-5 * want || got[1] != 1.0 {
+            wrong.push(format!("ray at 1.1^{first}: closest t {} (want {want}), blocked {}", got[0], got[1]));
+        }
+    }
+    assert!(wrong.is_empty(), "{} of {} rays wrong:\n{}", wrong.len(), expected.len(), wrong.join("\n"));
+}

@@ -143,6 +143,8 @@ impl Accumulation {
 
         let outputs = [&accum, &accum_sq, &counters, &aov_light, &aov_brdf];
         let mut key = KernelKey::for_render(&scene.features, settings, gpu.auto_execution());
+        // Every kernel, generic or not, takes the stack its scene's BVH needs.
+        key.bvh_stack = scene.bvh_stack();
         if settings.specialise {
             // The scene's small arrays are also uniform buffers where that pays (`upload_scene`).
             key.uniform = scene.uniform;

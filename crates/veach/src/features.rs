@@ -151,6 +151,9 @@ pub struct KernelKey {
     /// A small scene's triangles, compiled into the kernel in place of the BVH (`GpuScene`
     /// decides, on CPU adapters); none in the generic kernel.
     pub baked: Option<std::sync::Arc<crate::gpu::baked_triangles::BakedTriangles>>,
+    /// Entries of the BVH traversal's stack: `gpu::bvh_nodes::BVH_STACK_SIZE`, more for deeper
+    /// trees (`GpuScene::bvh_stack`). Not a specialisation: every kernel takes its scene's.
+    pub bvh_stack: u32,
 }
 
 impl KernelKey {
@@ -170,6 +173,7 @@ impl KernelKey {
             wavefront: false,
             uniform: UniformArrays::default(),
             baked: None,
+            bvh_stack: crate::gpu::bvh_nodes::BVH_STACK_SIZE,
         }
     }
 
@@ -207,6 +211,7 @@ impl KernelKey {
             wavefront: uses_wavefront(features, settings, auto),
             uniform: UniformArrays::default(),
             baked: None,
+            bvh_stack: crate::gpu::bvh_nodes::BVH_STACK_SIZE,
         }
     }
 

@@ -347,6 +347,8 @@ pub struct GpuScene {
     pub(crate) light_count: u32,
     pub(crate) emitter_bound: ([f32; 3], f32),
     pub(crate) emitter_box: ([f32; 3], [f32; 3]),
+    /// The most entries the BVH's traversal can push (`gpu::bvh_nodes::stack_bound`).
+    pub(crate) bvh_stack_bound: u32,
     pub stats: SceneUploadStats,
     /// What the scene needs of the kernel.
     pub features: SceneFeatures,
@@ -357,6 +359,16 @@ impl GpuScene {
     /// (`shaders/traverse_baked.wgsl`); 0 where they traverse it.
     pub fn baked_triangles(&self) -> usize {
         self.baked.as_ref().map_or(0, |b| b.len())
+    }
+
+    /// The most entries the BVH's traversal can push on its stack.
+    pub fn bvh_stack_bound(&self) -> u32 {
+        self.bvh_stack_bound
+    }
+
+    /// The traversal stack its kernels need (`KernelKey::bvh_stack`).
+    pub fn bvh_stack(&self) -> u32 {
+        crate::gpu::bvh_nodes::stack_size_for(self.bvh_stack_bound)
     }
 }
 
@@ -461,7 +473,7 @@ impl Renderer {
         let (pipelines, layout) = bindings::create_pipelines(
             &self.gpu.device,
             "veach render kernel",
-            shaders::render_kernel_source(key.textures, key.uniform, key.baked.as_deref()),
+            shaders::render_kernel_source(key.textures, key.uniform, key.baked.as_deref(), key.bvh_stack),
             entry_points,
             extra,
             &key.constants(),
@@ -539,6 +551,7 @@ impl Renderer {
             baked.mark_blockers(&arrays.triangle_lights, (!directional).then_some(&delta[..]));
             Arc::new(baked)
         });
+        let bvh_stack_bound = crate::gpu::bvh_nodes::stack_bound(&arrays.bvh_nodes);
         let uniform = UniformArrays {
             bvh_nodes: pad_for_uniform(&mut arrays.bvh_nodes, capacity),
             vertices: pad_for_uniform(&mut arrays.vertices, self.uniform_capacity::<layout::Vertex>(memory)),
@@ -598,6 +611,7 @@ impl Renderer {
             light_count: scene.lights.len() as u32,
             emitter_bound: arrays.emitter_bound,
             emitter_box: arrays.emitter_box,
+            bvh_stack_bound,
             stats,
             features,
         })

@@ -2,6 +2,7 @@
 
 use crate::features::UniformArrays;
 use crate::gpu::baked_triangles::BakedTriangles;
+use crate::gpu::bvh_nodes::BVH_STACK_SIZE;
 
 /// The shader files in the order they are joined. Later files use what earlier ones declare.
 /// `TRAVERSAL` marks where the traversal goes: `traverse_bvh.wgsl`, or `traverse_baked.wgsl` with a
@@ -36,11 +37,16 @@ const TEXTURES_OFF: (&str, &str) = ("textures_none.wgsl", include_str!("../../..
 pub const TEST_KERNELS: (&str, &str) = ("test_kernels.wgsl", include_str!("../../../shaders/test_kernels.wgsl"));
 pub const TEST_ENTRY_POINT: &str = "run_test";
 
-/// The render kernel's source (with textures) followed by the test kernels (see `gpu::test_kernel`).
-pub fn test_kernel_source() -> String {
+/// The render kernel's source (with textures and a traversal stack of `bvh_stack` entries) followed
+/// by the test kernels (see `gpu::test_kernel`).
+pub fn test_kernel_source(bvh_stack: u32) -> String {
     let (name, text) = TEST_KERNELS;
-    format!("{}// ---- shaders/{name} ----\n{text}\n", render_kernel_source(true, UniformArrays::default(), None))
+    let render = render_kernel_source(true, UniformArrays::default(), None, bvh_stack);
+    format!("{render}// ---- shaders/{name} ----\n{text}\n")
 }
+
+/// How traverse_bvh.wgsl declares its stack's size (`gpu::bvh_nodes::BVH_STACK_SIZE`).
+const STACK_SIZE_DECLARATION: &str = "const BVH_STACK_SIZE: u32 = ";
 
 /// The arrays that may be uniform, as layout.wgsl declares them: name and element type.
 const UNIFORM_CANDIDATES: [(&str, &str); 7] = [
@@ -61,8 +67,14 @@ pub const WAVEFRONT_ENTRY_POINTS: [&str; 3] = ["render_light_pass", "prepare_dir
 /// The whole kernel source. Each file is preceded by a marker comment so that a line number in
 /// a WGSL error can be traced back to its file. The arrays of `uniform` with a length are read
 /// from uniform arrays of that length instead of storage buffers (`KernelKey::uniform`). With
-/// `baked` triangles, rays test those instead of traversing the BVH (`KernelKey::baked`).
-pub fn render_kernel_source(textures: bool, uniform: UniformArrays, baked: Option<&BakedTriangles>) -> String {
+/// `baked` triangles, rays test those instead of traversing the BVH (`KernelKey::baked`); without,
+/// the traversal's stack holds `bvh_stack` entries (`KernelKey::bvh_stack`).
+pub fn render_kernel_source(
+    textures: bool,
+    uniform: UniformArrays,
+    baked: Option<&BakedTriangles>,
+    bvh_stack: u32,
+) -> String {
     let mut source = String::new();
     for &file in SHADER_FILES {
         let (name, text) = match file {
@@ -78,6 +90,11 @@ pub fn render_kernel_source(textures: bool, uniform: UniformArrays, baked: Optio
             None => source.push_str(text),
         }
         source.push('\n');
+    }
+    if bvh_stack != BVH_STACK_SIZE && baked.is_none() {
+        let default = format!("{STACK_SIZE_DECLARATION}{BVH_STACK_SIZE}u;");
+        assert!(source.contains(&default), "traverse_bvh.wgsl declares its stack otherwise");
+        source = source.replace(&default, &format!("{STACK_SIZE_DECLARATION}{bvh_stack}u;"));
     }
     let lengths = uniform.lengths();
     for ((name, element), n) in UNIFORM_CANDIDATES.into_iter().zip(lengths).filter(|(_, n)| *n > 0) {
@@ -156,7 +173,7 @@ mod tests {
             (false, small, None),
             (false, small, Some(&baked)),
         ] {
-            let source = render_kernel_source(textures, uniform, baked);
+            let source = render_kernel_source(textures, uniform, baked, BVH_STACK_SIZE);
             if baked.is_some() {
                 assert!(!source.lines().any(|l| l.trim_start().starts_with("{baked")), "a template line left in");
                 assert!(!source.contains("var<private> bvh_stack"), "a baked kernel with the BVH's traversal");
@@ -176,8 +193,18 @@ mod tests {
 
     #[test]
     fn test_kernels_validate_with_naga() {
-        let source = test_kernel_source();
+        let source = test_kernel_source(BVH_STACK_SIZE);
         validate_wgsl(&source).unwrap_or_else(|e| panic!("WGSL invalid:\n{e}"));
+    }
+
+    #[test]
+    fn a_deeper_trees_kernel_gets_a_larger_stack() {
+        let declares = |n: u32| format!("{STACK_SIZE_DECLARATION}{n}u;");
+        let default = render_kernel_source(false, UniformArrays::default(), None, BVH_STACK_SIZE);
+        assert!(default.contains(&declares(BVH_STACK_SIZE)), "traverse_bvh.wgsl's stack is not BVH_STACK_SIZE");
+        let deeper = render_kernel_source(false, UniformArrays::default(), None, 160);
+        assert!(deeper.contains(&declares(160)) && !deeper.contains(&declares(BVH_STACK_SIZE)));
+        validate_wgsl(&deeper).unwrap_or_else(|e| panic!("WGSL invalid:\n{e}"));
     }
 
     #[test]

@@ -2,6 +2,7 @@
 //! chooses, so that statistical tests check the code that renders rather than a copy of it.
 
 use super::bindings;
+use super::bvh_nodes::BVH_STACK_SIZE;
 use super::layout::{FrameParams, TestParams};
 use crate::error::{Error, Result};
 use crate::render::{GpuScene, Kernel, Renderer, read_buffer};
@@ -27,6 +28,7 @@ pub mod routine {
     pub const DECODE_NORMAL: u32 = 22;
     pub const TEXTURE_LOOKUP: u32 = 30;
     pub const TEXTURED_MATERIAL: u32 = 31;
+    pub const TRACE: u32 = 40;
 }
 
 pub struct TestKernel<'a> {
@@ -37,11 +39,21 @@ pub struct TestKernel<'a> {
 const WORKGROUP: u32 = 64;
 
 impl<'a> TestKernel<'a> {
+    /// The test kernels with the traversal stack of most scenes (`BVH_STACK_SIZE`).
     pub fn new(renderer: &'a Renderer) -> Result<Self> {
+        Self::with_stack(renderer, BVH_STACK_SIZE)
+    }
+
+    /// The test kernels with the traversal stack `scene`'s BVH needs.
+    pub fn for_scene(renderer: &'a Renderer, scene: &GpuScene) -> Result<Self> {
+        Self::with_stack(renderer, scene.bvh_stack())
+    }
+
+    fn with_stack(renderer: &'a Renderer, bvh_stack: u32) -> Result<Self> {
         let (mut pipelines, layout) = bindings::create_pipelines(
             &renderer.gpu.device,
             "veach test kernels",
-            shaders::test_kernel_source(),
+            shaders::test_kernel_source(bvh_stack),
             &[shaders::TEST_ENTRY_POINT],
             bindings::ExtraBindings { uniform: Default::default(), textures: true, deferred: false, test_io: true },
             &[],
