@@ -58,7 +58,8 @@ pub fn build_bvh_fitting(triangles: &[Triangle], max_nodes: usize) -> Bvh {
     let bvh = build_bvh(triangles);
     // Larger leaves take about a third of the nodes away, never half: a tree over twice the
     // budget is not built a second time (a million triangles' would double the build time).
-    if bvh.gpu_nodes() <= max_nodes || bvh.gpu_nodes() > 2 * max_nodes {
+    let nodes = bvh.gpu_nodes();
+    if nodes <= max_nodes || nodes > 2 * max_nodes {
         return bvh;
     }
     let mut larger_leaves = build_bvh_with(triangles, BvhBuildParams::medium_build());

@@ -24,44 +24,71 @@ pub const BVH_STACK_SIZE: u32 = 96;
 /// Light tags are 16 bits (`BvhNode::lights`); lights past this are never skipped.
 const MAX_LIGHT_TAG: u32 = 0xffff;
 
-/// The BVH2 nodes (indices into `nodes`) that become the children of the wide node over inner
-/// node `parent`: its two children, then, while there are fewer than four, the inner child of
-/// largest surface area (the one a ray most likely enters) replaced by its two children.
-fn wide_children(nodes: &[HostNode], parent: &HostNode) -> Vec<usize> {
-    let mut children = vec![parent.first as usize, parent.first as usize + 1];
-    while children.len() < WIDTH {
-        let largest = children
-            .iter()
-            .copied()
-            .enumerate()
-            .filter(|&(_, c)| nodes[c].count == 0)
-            .max_by(|&(_, a), &(_, b)| half_area(&nodes[a]).total_cmp(&half_area(&nodes[b])));
-        let Some((slot, c)) = largest else { break };
-        let first = nodes[c].first as usize;
-        children.splice(slot..=slot, [first, first + 1]);
+/// The BVH2 nodes (indices into `nodes`) that become the children of one wide node.
+#[derive(Clone, Copy, Debug)]
+struct WideChildren {
+    slots: [usize; WIDTH],
+    len: usize,
+}
+
+impl WideChildren {
+    fn as_slice(&self) -> &[usize] {
+        &self.slots[..self.len]
+    }
+}
+
+/// The children of the wide node over inner node `parent`: its two children, then, while there
+/// are fewer than four, the inner child of largest surface area (the one a ray most likely
+/// enters) replaced by its two children.
+fn wide_children(nodes: &[HostNode], parent: &HostNode) -> WideChildren {
+    let first = parent.first as usize;
+    let mut children = WideChildren { slots: [first, first + 1, 0, 0], len: 2 };
+    while children.len < WIDTH {
+        let largest = (0..children.len)
+            .filter(|&slot| nodes[children.slots[slot]].count == 0)
+            .max_by(|&a, &b| half_area(&nodes[children.slots[a]]).total_cmp(&half_area(&nodes[children.slots[b]])));
+        let Some(slot) = largest else { break };
+        let first = nodes[children.slots[slot]].first as usize;
+        // Its two children take its slot and the next; the slots after it move up one.
+        children.slots.copy_within(slot + 1..children.len, slot + 2);
+        children.slots[slot] = first;
+        children.slots[slot + 1] = first + 1;
+        children.len += 1;
     }
     children
 }
 
 /// The BVH2 node under each wide node, in the kernels' order (breadth first, the root first),
 /// and each one's children.
-fn collapse(nodes: &[HostNode]) -> Vec<(usize, Vec<usize>)> {
+fn collapse(nodes: &[HostNode]) -> Vec<(usize, WideChildren)> {
     if nodes.len() == 1 {
-        return vec![(0, vec![0])];
+        return vec![(0, WideChildren { slots: [0; WIDTH], len: 1 })];
     }
     let mut wide = vec![(0, wide_children(nodes, &nodes[0]))];
     let mut i = 0;
     while i < wide.len() {
-        let inner: Vec<usize> = wide[i].1.iter().copied().filter(|&c| nodes[c].count == 0).collect();
-        wide.extend(inner.into_iter().map(|c| (c, wide_children(nodes, &nodes[c]))));
+        let children = wide[i].1;
+        for &c in children.as_slice().iter().filter(|&&c| nodes[c].count == 0) {
+            wide.push((c, wide_children(nodes, &nodes[c])));
+        }
         i += 1;
     }
     wide
 }
 
-/// How many nodes the kernels read for this BVH2 (`encode_bvh_nodes`'s length).
+/// How many nodes the kernels read for this BVH2 (`encode_bvh_nodes`'s length): one for each
+/// inner node that no wide node opens, that is the root and every inner child of a wide node.
 pub fn wide_node_count(nodes: &[HostNode]) -> usize {
-    collapse(nodes).len()
+    if nodes.len() == 1 {
+        return 1;
+    }
+    let mut count = 0;
+    let mut todo = vec![0];
+    while let Some(n) = todo.pop() {
+        count += 1;
+        todo.extend(wide_children(nodes, &nodes[n]).as_slice().iter().filter(|&&c| nodes[c].count == 0));
+    }
+    count
 }
 
 /// The GPU nodes of a BVH2: wide nodes, the root first, each with up to four children's boxes,
@@ -77,6 +104,7 @@ pub fn encode_bvh_nodes(nodes: &[HostNode], node_lights: &[u32]) -> Vec<BvhNode>
     }
     wide.iter()
         .map(|(_, children)| {
+            let children = children.as_slice();
             let boxes: Vec<&HostNode> = children.iter().map(|&c| &nodes[c]).collect();
             let references: Vec<u32> = children
                 .iter()
@@ -324,6 +352,7 @@ mod tests {
             let node = &gpu[g as usize];
             let parent = &bvh.nodes[host];
             let children = wide_children(&bvh.nodes, parent);
+            let children = children.as_slice();
             assert!((2..=WIDTH).contains(&children.len()));
             slots_used += children.len();
             let boxes = decode_child_boxes(node);
