@@ -50,6 +50,7 @@ bugs=(
   "shaders/lights.wgsl|const POWER_SHARE: f32 = 0.25;|const POWER_SHARE: f32 = 0.0;|strategies|per_point|per-point light choice without its power share: a light whose guess is zero is never chosen"
   "shaders/lights.wgsl|return point_selection[min(index, MAX_POINT_SELECTION_LIGHTS - 1u)];|return light_picks[index].pdf;|analytic|area_and_point|per-point light choice weighted by the power pdf it did not sample from"
   "shaders/traverse_baked.wgsl|intersect_triangle(origin, sh, p0, p1, p2, (*hit).t);|intersect_triangle(origin, sh, p0, p1, p2, RAY_INF);|specialise|compiled_into|baked closest hit: the last triangle met, not the nearest"
+  "shaders/traverse_baked.wgsl|return Hit(hit.t, r.y, r.z, hit.tri, hit.found);|return Hit(hit.t, r.y, r.y, hit.tri, hit.found);|specialise|compiled_into|baked closest hit: the winner's barycentrics recomputed wrong (b2 = b1)"
   "crates/veach/src/gpu/light_subtrees.rs|let tolerance = 1e-5 * (hi - lo).length();|let tolerance = 1e30 * (hi - lo).length();|stress|shadows_itself|every light taken as convex: a light's own panel no longer shadows it"
   "shaders/lights.wgsl|    if SINGLE_LIGHT {\n        return 1.0;|    if SINGLE_LIGHT {\n        return 0.5;|specialise|specialised_kernels|one light's selection probability taken as 1/2 in its kernel"
   "shaders/traverse_bvh.wgsl|var hi_z = grid.z + vec4f((vec4u(high.z) >> shifts)|var hi_z = grid.z + vec4f((vec4u(low.z) >> shifts)|specialise|triangles_compiled|quantised BVH: the children's high z decoded from their low cells"

@@ -16,7 +16,7 @@ fn trace_closest(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
     let sh = ray_shear(dir);
     let inv_dir = safe_inverse(dir);
     {baked closest_candidate(&hit, origin, sh, p0, p1, p2, triangle); | intersect_aabb(origin, inv_dir, lo, hi, hit.t) < RAY_INF}
-    return hit;
+    return with_barycentrics(hit, origin, sh);
 }
 
 // Any hit along origin + t * dir, t in (0, t_max): true when the segment is blocked.
@@ -33,15 +33,21 @@ fn trace_occluded(origin: vec3f, dir: vec3f, t_max: f32, skip: u32) -> bool {
 }
 
 // Triangle `triangle` (an index into `triangles`) is the new closest hit if the ray meets it before
-// the closest so far. Selects, no branch (see intersect_triangle).
+// the closest so far. Selects, no branch (see intersect_triangle). Only t and the triangle are kept
+// through the list; with_barycentrics finds the winner's barycentrics after it: two fewer values
+// live across the list, where Mesa 22.3's LLVM spills (Cornell box 0.92-0.97x there,
+// docs/performance.md, "Barycentrics after the baked list").
 fn closest_candidate(hit: ptr<function, Hit>, origin: vec3f, sh: RayShear, p0: vec3f, p1: vec3f, p2: vec3f, triangle: u32) {
     let r = intersect_triangle(origin, sh, p0, p1, p2, (*hit).t);
     let nearer = r.x > 0.0;
-    *hit = Hit(
-        select((*hit).t, r.x, nearer),
-        select((*hit).b1, r.y, nearer),
-        select((*hit).b2, r.z, nearer),
-        select((*hit).tri, triangle, nearer),
-        (*hit).found || nearer,
-    );
+    *hit = Hit(select((*hit).t, r.x, nearer), 0.0, 0.0, select((*hit).tri, triangle, nearer), (*hit).found || nearer);
+}
+
+// The closest hit with its barycentrics: the watertight test run again on the winning triangle, its
+// corners read from the vertex buffer (the values the baked constants spell), gives the (b1, b2) it
+// gave in the list: the same inputs, and its t_max only decides whether it reports a hit.
+fn with_barycentrics(hit: Hit, origin: vec3f, sh: RayShear) -> Hit {
+    let v = triangle_corners(hit.tri);
+    let r = intersect_triangle(origin, sh, v.p0, v.p1, v.p2, RAY_INF);
+    return Hit(hit.t, r.y, r.z, hit.tri, hit.found);
 }
