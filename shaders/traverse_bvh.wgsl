@@ -4,8 +4,8 @@
 
 const BVH_STACK_SIZE: u32 = 96u;
 
-// The traversal stack, shared by both traversals (a ray's traversal ends before the next begins).
-// At module scope it is zeroed once per invocation, as WGSL requires of every variable; declared
+// The traversal stack's entries below the top WINDOW (TraversalStack), shared by both traversals
+// (a ray's traversal ends before the next begins). At module scope it is zeroed once per invocation, as WGSL requires of every variable; declared
 // in trace_closest and trace_occluded it was zeroed at every call, 64 stores per traversal, which Mesa
 // 22.3's lavapipe does not optimise away: 0.75-0.84x the render time there (docs/performance.md,
 // "The traversal stack at module scope").
@@ -78,18 +78,66 @@ fn order_pair(a: ptr<function, vec2u>, b: ptr<function, vec2u>) {
     *a = low;
 }
 
-fn push(node: u32, sp: ptr<function, u32>) {
-    if *sp < BVH_STACK_SIZE {
-        bvh_stack[*sp] = node;
-        *sp += 1u;
+// The traversal stack: its top WINDOW entries in registers (one vec4u, read and written by
+// selects), the entries below them in bvh_stack, which lavapipe stores to and loads from lane by
+// lane (a mask test, a branch and a scalar access each). Entries [bottom, sp) are in the window,
+// entry k in slot k % WINDOW; entries [0, bottom) in bvh_stack. A push onto a full window first
+// spills its oldest entry, in a loop of zero or one turn: Mesa 22.3 runs an `if`'s code under a
+// mask whether a lane takes it or not, lane-by-lane store included, but ends a loop once no lane
+// goes on. A pop from an empty window reads memory under an `if` (as fast, and an `if` spends
+// none of Mesa 22's loop budget, loop_budget_held; the spill's loop spends one a push). Veach
+// scene 0.85-0.86x on Mesa 22.3, 0.80x on Mesa 25 (docs/performance.md, "The stack's top in
+// registers").
+const WINDOW: u32 = 4u;
+
+struct TraversalStack {
+    window: vec4u,
+    sp: u32,
+    bottom: u32,
+}
+
+fn empty_stack() -> TraversalStack {
+    return TraversalStack(vec4u(NO_NODE), 0u, 0u);
+}
+
+// Slot k % WINDOW of the window, by selects (a vector indexed at run time goes to memory).
+fn window_slot(s: ptr<function, TraversalStack>, k: u32) -> u32 {
+    let w = (*s).window;
+    let slot = k % WINDOW;
+    return select(select(select(w.w, w.z, slot == 2u), w.y, slot == 1u), w.x, slot == 0u);
+}
+
+fn push(node: u32, s: ptr<function, TraversalStack>) {
+    let k = (*s).sp;
+    if k >= BVH_STACK_SIZE + WINDOW {
+        return;
     }
+    // A full window's oldest entry, `bottom`, is in the slot entry k takes.
+    for (var spill = u32(k - (*s).bottom == WINDOW); spill > 0u; spill--) {
+        bvh_stack[(*s).bottom] = window_slot(s, k);
+        (*s).bottom += 1u;
+    }
+    (*s).window = select((*s).window, vec4u(node), vec4u(k % WINDOW) == vec4u(0u, 1u, 2u, 3u));
+    (*s).sp = k + 1u;
+}
+
+// The entry on top of a non-empty stack, taken off it.
+fn pop(s: ptr<function, TraversalStack>) -> u32 {
+    (*s).sp -= 1u;
+    var node = window_slot(s, (*s).sp);
+    // An empty window: the entry is the top of memory's.
+    if (*s).sp < (*s).bottom {
+        node = bvh_stack[(*s).sp];
+        (*s).bottom = (*s).sp;
+    }
+    return node;
 }
 
 // One step from inner node `node`, given the ray's entry distances to its children (RAY_INF where
 // it misses one): the nearest child it enters, with the others it enters pushed on the stack,
 // farthest first; or, entering none, the position on top of the stack, or NO_NODE when that is
 // empty. Ordered traversal: the closest hit found in a near child culls the far ones.
-fn next_node(node: u32, t: vec4f, sp: ptr<function, u32>) -> u32 {
+fn next_node(node: u32, t: vec4f, stack: ptr<function, TraversalStack>) -> u32 {
     let children = bvh_nodes[node].children;
     let hit = select(vec4f(RAY_INF), t, children != vec4u(NO_NODE));
     // A sorting network of four (Knuth, TAOCP vol. 3, §5.3.4) on (distance, reference) pairs.
@@ -105,21 +153,20 @@ fn next_node(node: u32, t: vec4f, sp: ptr<function, u32>) -> u32 {
     order_pair(&e1, &e2);
     let missed = bitcast<u32>(RAY_INF);
     // The entered children past the nearest (e1, e2, e3 in order), pushed farthest first by one
-    // push in a loop: lavapipe stores to the stack lane by lane, and Mesa 22.3 runs every `if`'s
-    // code under a mask whether a lane takes it or not, but ends a loop once no lane goes on
-    // (the Veach scene 0.97-0.98x there; three pushes under `if`s before).
+    // push in a loop: Mesa 22.3 runs every `if`'s code under a mask whether a lane takes it or
+    // not, but ends a loop once no lane goes on (the Veach scene 0.97-0.98x there, when every push
+    // went to memory; three pushes under `if`s before).
     let entered = u32(e1.x != missed) + u32(e2.x != missed) + u32(e3.x != missed);
     for (var k = entered; k > 0u; k--) {
-        push(select(select(e3.y, e2.y, k == 2u), e1.y, k == 1u), sp);
+        push(select(select(e3.y, e2.y, k == 2u), e1.y, k == 1u), stack);
     }
     if e0.x != missed {
         return e0.y;
     }
-    if *sp == 0u {
+    if (*stack).sp == 0u {
         return NO_NODE;
     }
-    *sp -= 1u;
-    return bvh_stack[*sp];
+    return pop(stack);
 }
 
 // Both traversals below are "while-while" loops (Aila & Laine, "Understanding the Efficiency of
@@ -133,11 +180,11 @@ fn trace_closest(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
     var hit = Hit(t_max, 0.0, 0.0, 0u, false);
     let sh = ray_shear(dir);
     let inv_dir = safe_inverse(dir);
-    var sp = 0u;
+    var stack = empty_stack();
     var position = 0u;
     loop {
         while position < LEAF_BIT {
-            position = next_node(position, child_distances(position, origin, inv_dir, hit.t), &sp);
+            position = next_node(position, child_distances(position, origin, inv_dir, hit.t), &stack);
         }
         if position == NO_NODE {
             break;
@@ -150,11 +197,10 @@ fn trace_closest(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
                 hit = Hit(r.x, r.y, r.z, i, true);
             }
         }
-        if sp == 0u {
+        if stack.sp == 0u {
             break;
         }
-        sp--;
-        position = bvh_stack[sp];
+        position = pop(&stack);
     }
     return hit;
 }
@@ -167,7 +213,7 @@ fn trace_occluded(origin: vec3f, dir: vec3f, t_max: f32, skip: u32) -> bool {
     let skipped = select(0xffffffffu, skip, skip != 0u);
     let sh = ray_shear(dir);
     let inv_dir = safe_inverse(dir);
-    var sp = 0u;
+    var stack = empty_stack();
     var position = 0u;
     loop {
         while position < LEAF_BIT {
@@ -175,7 +221,7 @@ fn trace_occluded(origin: vec3f, dir: vec3f, t_max: f32, skip: u32) -> bool {
             let lights_23 = bvh_nodes[position].lights_23;
             let tags = vec4u(lights_01 & 0xffffu, lights_01 >> 16u, lights_23 & 0xffffu, lights_23 >> 16u);
             let t = child_distances(position, origin, inv_dir, t_max);
-            position = next_node(position, select(t, vec4f(RAY_INF), tags == vec4u(skipped)), &sp);
+            position = next_node(position, select(t, vec4f(RAY_INF), tags == vec4u(skipped)), &stack);
         }
         if position == NO_NODE {
             break;
@@ -187,11 +233,10 @@ fn trace_occluded(origin: vec3f, dir: vec3f, t_max: f32, skip: u32) -> bool {
                 return true;
             }
         }
-        if sp == 0u {
+        if stack.sp == 0u {
             break;
         }
-        sp--;
-        position = bvh_stack[sp];
+        position = pop(&stack);
     }
     return false;
 }
