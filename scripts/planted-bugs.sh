@@ -58,7 +58,7 @@ bugs=(
   "shaders/traverse_bvh.wgsl|select(t, vec4f(RAY_INF), tags == vec4u(skipped))|select(t, vec4f(RAY_INF), tags.yxwz == vec4u(skipped))|specialise|triangles_compiled|4-wide BVH: shadow rays skip the sibling of their light's subtree"
   "shaders/traverse_bvh.wgsl|bvh_stack[(*s).bottom] = window_slot(s, k);|bvh_stack[(*s).bottom] = window_slot(s, k + 1u);|stress|triangle_soup|traversal stack: a full window spills the wrong slot to memory"
   "shaders/traverse_bvh.wgsl|node = bvh_stack[(*s).sp];|node = bvh_stack[(*s).bottom];|stress|triangle_soup|traversal stack: a pop from an empty window reads the wrong memory entry"
-  "crates/veach/src/gpu/bvh_nodes.rs|children.splice(slot..=slot, [first, first + 1]);|children.splice(slot..=slot, [first, first]);|specialise|triangles_compiled|4-wide BVH: a collapsed node's second child lost"
+  "crates/veach/src/gpu/bvh_nodes.rs|children.slots[slot + 1] = first + 1;|children.slots[slot + 1] = first;|specialise|triangles_compiled|4-wide BVH: a collapsed node's second child lost"
   "crates/veach/src/gpu/bvh_nodes.rs|while q < 255 && grid_bound(origin, cell, q + 1) <= low {|while q < 255 && grid_bound(origin, cell, q) <= low {|specialise|triangles_compiled|quantised BVH: low bounds rounded one cell inwards"
   "crates/veach/src/gpu/baked_triangles.rs|kept.iter().map(|kept.iter().skip(1).map(|specialise|compiled_into|baked triangles: each group's first left out of the kernel"
   "crates/veach/src/render.rs|baked.mark_blockers(&arrays.triangle_lights, (!directional).then_some(&delta[..]));|let _ = directional; baked.mark_blockers(&arrays.triangle_lights, Some(&delta[..]));|specialise|wall_at_the_edge|baked shadow rays: a wall left out though a directional light shines across it"
