@@ -5,10 +5,11 @@
 const BVH_STACK_SIZE: u32 = 96u;
 
 // The traversal stack's entries below the top WINDOW (TraversalStack), shared by both traversals
-// (a ray's traversal ends before the next begins). At module scope it is zeroed once per invocation, as WGSL requires of every variable; declared
-// in trace_closest and trace_occluded it was zeroed at every call, 64 stores per traversal, which Mesa
-// 22.3's lavapipe does not optimise away: 0.75-0.84x the render time there (docs/performance.md,
-// "The traversal stack at module scope").
+// (a ray's traversal ends before the next begins). At module scope it is zeroed once per
+// invocation, as WGSL requires of every variable; declared in trace_closest and trace_occluded it
+// was zeroed at every call, 64 stores per traversal, which Mesa 22.3's lavapipe does not optimise
+// away: 0.75-0.84x the render time there (docs/performance.md, "The traversal stack at module
+// scope").
 var<private> bvh_stack: array<u32, BVH_STACK_SIZE>;
 
 // A traversal's position: an inner node's index, or a leaf's reference (LEAF_BIT set; see
