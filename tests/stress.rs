@@ -351,13 +351,8 @@ fn random_rays_through_a_triangle_soup_find_the_brute_force_hits() {
     use glam::{DVec3, Vec3};
     use veach::gpu::layout::{FrameParams, TestParams};
     use veach::gpu::test_kernel::{TestKernel, routine};
-    // PCG32 (O'Neill 2014), so that the soup and the rays are the same on every run.
-    let mut state = 0x853c49e6748fea9bu64;
-    let mut next = move || {
-        state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        let x = (((state >> 18) ^ state) >> 27) as u32;
-        (x.rotate_right((state >> 59) as u32) >> 8) as f32 / (1u32 << 24) as f32
-    };
+    // The same soup and rays on every run.
+    let mut next = uniforms(0x853c49e6748fea9b);
     let mut scene = veach::Scene { materials: vec![Default::default()], ..Default::default() };
     for _ in 0..2000 {
         let centre = Vec3::new(next(), next(), next());

@@ -13,15 +13,6 @@ use veach::gpu::test_kernel::{TestKernel, routine};
 use veach::scene::{Encoding, Scene, Wrap, srgb_to_linear};
 use veach::{RenderSettings, Strategy};
 
-/// A deterministic stream in [0, 1).
-fn uniforms(seed: u64) -> impl FnMut() -> f32 {
-    let mut s = seed;
-    move || {
-        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        (s >> 40) as f32 / (1u64 << 24) as f32
-    }
-}
-
 fn noise_texture(
     name: &str,
     size: (u32, u32),

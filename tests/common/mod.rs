@@ -26,6 +26,15 @@ pub fn output_dir(test: &str) -> PathBuf {
     dir
 }
 
+/// A deterministic stream in [0, 1): a 64-bit LCG (Knuth's MMIX constants), its top 24 bits.
+pub fn uniforms(seed: u64) -> impl FnMut() -> f32 {
+    let mut s = seed;
+    move || {
+        s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (s >> 40) as f32 / (1u64 << 24) as f32
+    }
+}
+
 /// Writes the scene as glTF and loads it back, so tests go through the real loader.
 pub fn load(builder: &GltfBuilder, name: &str) -> Scene {
     let path = output_dir("scenes").join(format!("{name}.gltf"));
