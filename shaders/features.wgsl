@@ -22,6 +22,9 @@ override POINT_LIGHT_SELECTION: bool = true;
 override SINGLE_LIGHT: bool = false;
 // Light samples may pick directions by solid angle (frame.light_sampling); false: by area only.
 override SOLID_ANGLE_SAMPLING: bool = true;
+// Light samples may pick directions in round lights' bounding cones (frame.light_sampling ==
+// LIGHT_SAMPLING_CONE): they are then traced as direction samples (integrator.wgsl).
+override CONE_SAMPLING: bool = true;
 
 const STRATEGY_FROM_FRAME: u32 = 255u;
 

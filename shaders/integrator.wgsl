@@ -4,7 +4,8 @@
 // hit, by the strategy in frame.strategy:
 //   uniform: (1/N) Σ f L cos / (1/2π)                         (hemisphere directions)
 //   brdf:    (1/m) Σ f L cos / p_brdf                          (glTF BRDF sampling)
-//   light:   (1/n) Σ f L_e cos / (P(light) p_ω)                (area sampling, r²/(|cos θ_l| A))
+//   light:   (1/n) Σ f L_e cos / (P(light) p_ω)                (area sampling, r²/(|cos θ_l| A);
+//            or a round light's bounding cone, 1/Ω: those samples are traced as direction samples)
 //   mis:     (1/n) Σ w_l f L_e cos / p_l + (1/m) Σ w_b f L_e cos / p_b   (Veach & Guibas 1995, eq. 8)
 //   mis-lobes: f = f_diffuse + f_glossy; the diffuse lobe by light sampling alone (n + m light
 //            samples where there is no glossy lobe), the glossy lobe by MIS of n light samples
@@ -199,28 +200,102 @@ fn light_sample_requests(plan: SamplePlan) -> u32 {
     return select(plan.n, plan.n * frame.light_count, frame.light_selection == SELECT_EACH);
 }
 
-// The plan's light samples: n of each light (SELECT_EACH), or n of one light chosen per sample.
-// One loop, so the shadow-ray traversal is inlined once.
+// Light sample k of a plan: the light (the k / n-th with SELECT_EACH, else one chosen by the
+// frame's selection), the probability of choosing it, and the 2D sample left for the light itself.
+// One request of the stream.
+struct LightChoice {
+    index: u32,
+    p_select: f32,
+    u: vec2f,
+}
+
+fn choose_light(plan: SamplePlan, k: u32, stream: ptr<function, SampleStream>) -> LightChoice {
+    var ch = LightChoice(k / plan.n, 1.0, sample_2d(stream));
+    if frame.light_selection != SELECT_EACH {
+        let pick = select_light(ch.u.x);
+        ch.index = pick.index;
+        ch.u.x = pick.u;
+        ch.p_select = light_selection_pdf(pick.index);
+    }
+    return ch;
+}
+
+// Is a light sample with this choice traced as a direction sample (a round light's cone)?
+fn traced_as_direction(c: ShadingContext, ch: LightChoice) -> bool {
+    return CONE_SAMPLING && cone_sampled(light_at(ch.index), c.s.p);
+}
+
+// The plan's light samples: n of each light (SELECT_EACH), or n of one light chosen per sample;
+// the sum of those taken here, over n (samples of a round light's cone are direction samples,
+// estimate_radiance). One loop, so the shadow-ray traversal is inlined once.
 fn estimate_light_samples(c: ShadingContext, plan: SamplePlan, stream: ptr<function, SampleStream>, rays: ptr<function, u32>) -> vec3f {
     let total = light_sample_requests(plan);
     if total == 0u {
         return vec3f(0.0);
     }
-    let each = frame.light_selection == SELECT_EACH;
     var sum = vec3f(0.0);
     for (var k = 0u; k < total; k++) {
-        var li = k / plan.n;
-        var p_select = 1.0;
-        var u = sample_2d(stream);
-        if !each {
-            let pick = select_light(u.x);
-            li = pick.index;
-            u.x = pick.u;
-            p_select = light_selection_pdf(li);
+        let ch = choose_light(plan, k, stream);
+        if traced_as_direction(c, ch) {
+            continue;
         }
-        sum += light_sample_value(c, trace_light_sample(c, li, p_select, u, rays), plan);
+        sum += light_sample_value(c, trace_light_sample(c, ch.index, ch.p_select, ch.u, rays), plan);
     }
     return sum / f32(plan.n);
+}
+
+// Light sample k of the plan where it is a direction in a round light's bounding cone (invalid
+// otherwise: a shadow-ray sample, or one that adds nothing). Its throughput is the light sample's
+// MIS-weighted f |cos θ_i| / p_light (light_sample_value with L_e = 1); what its closest hit finds
+// counts where that is the chosen light (cone_sample_value). `light_dim` is the stream's first
+// light-sample request.
+fn cone_light_sample(c: ShadingContext, plan: SamplePlan, k: u32, light_dim: u32, stream: SampleStream) -> DirectionSample {
+    var d = DirectionSample(c.s.ns, 0.0, vec3f(0.0), false, false, NO_LIGHT);
+    var light_stream = SampleStream(stream.index, stream.seed, light_dim + k);
+    let ch = choose_light(plan, k, &light_stream);
+    if !traced_as_direction(c, ch) {
+        return d;
+    }
+    let cone = bounding_cone(light_at(ch.index), c.s.p);
+    d.wi = sample_cone(cone, ch.u);
+    d.pdf = ch.p_select * cone_pdf(cone);
+    d.light = ch.index;
+    let wi = frame_to_local(c.frame, d.wi);
+    if wi.z <= 0.0 || dot(d.wi, c.s.ng) <= 0.0 {
+        return d;
+    }
+    let lobes = bsdf_eval_lobes(c.bsdf, c.wo, wi);
+    let s = LightSampleEval((lobes.diffuse + lobes.glossy) * wi.z, d.pdf, false, lobes.glossy * wi.z, wi);
+    d.throughput = light_sample_value(c, s, plan);
+    d.valid = any(d.throughput != vec3f(0.0));
+    return d;
+}
+
+// What a cone sample of light d.light found at surface `e`: that light's emitted radiance times
+// the sample's throughput; nothing where the ray met anything else first (occluded).
+fn cone_sample_value(d: DirectionSample, e: SurfaceHit) -> vec3f {
+    if e.light != d.light {
+        return vec3f(0.0);
+    }
+    return d.throughput * emitted_radiance(e);
+}
+
+// How far a direction sample's ray need go: to where it leaves the bounding sphere of the light a
+// cone sample aims at, or as far as any light (emitter_reach).
+fn direction_reach(d: DirectionSample, origin: vec3f) -> f32 {
+    if CONE_SAMPLING && d.light != NO_LIGHT {
+        let light = light_at(d.light);
+        return sphere_exit(origin, d.wi, light.position, light.bound_radius) * (1.0 + 1.0e-4);
+    }
+    return emitter_reach(origin, d.wi);
+}
+
+// How many of a plan's light samples may be cone samples, and so passes of the direction loop.
+fn cone_passes(plan: SamplePlan) -> u32 {
+    if !CONE_SAMPLING || frame.light_sampling != LIGHT_SAMPLING_CONE {
+        return 0u;
+    }
+    return light_sample_requests(plan);
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -238,11 +313,14 @@ struct DirectionSample {
     mis: bool,
     // False where the direction adds nothing (below the surface, f = 0): no ray is traced.
     valid: bool,
+    // NO_LIGHT for a BRDF or uniform sample; for a light sample in a round light's cone
+    // (cone_light_sample), the light it counts.
+    light: u32,
 }
 
 // A sample with a density: f of all lobes, or of the glossy lobe alone.
 fn density_sample(c: ShadingContext, wi: vec3f, pdf: f32, glossy_only: bool, mis: bool) -> DirectionSample {
-    var d = DirectionSample(frame_to_world(c.frame, wi), pdf, vec3f(0.0), mis, false);
+    var d = DirectionSample(frame_to_world(c.frame, wi), pdf, vec3f(0.0), mis, false, NO_LIGHT);
     if pdf <= 0.0 || wi.z <= 0.0 || dot(d.wi, c.s.ng) <= 0.0 {
         return d;
     }
@@ -256,7 +334,7 @@ fn density_sample(c: ShadingContext, wi: vec3f, pdf: f32, glossy_only: bool, mis
 // A mirror direction: no other technique produces it (MIS weight 1), and its estimate is the
 // reflectance over the probability of choosing the mirror lobe times the radiance found.
 fn mirror_sample(c: ShadingContext, wi: vec3f, reflectance_over_pdf: vec3f) -> DirectionSample {
-    var d = DirectionSample(frame_to_world(c.frame, wi), 1.0, reflectance_over_pdf, false, false);
+    var d = DirectionSample(frame_to_world(c.frame, wi), 1.0, reflectance_over_pdf, false, false, NO_LIGHT);
     d.valid = dot(d.wi, c.s.ng) > 0.0;
     return d;
 }
@@ -431,11 +509,12 @@ fn estimate_radiance(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<fu
     var c: ShadingContext;
     var plan = SamplePlan(0u, LIGHT_ALONE, 0u);
     var origin = ray.origin;
-    var d = DirectionSample(ray.dir, 1.0, vec3f(1.0), false, true);
+    var d = DirectionSample(ray.dir, 1.0, vec3f(1.0), false, true, NO_LIGHT);
     var t_max = RAY_INF;
     var at_camera = true;
     var taken = 0u;
     var light_dim = 0u;
+    var cone_sum = vec3f(0.0);
     loop {
         *rays += 1u;
         let hit = trace_closest(origin, d.wi, t_max);
@@ -453,6 +532,8 @@ fn estimate_radiance(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<fu
                 // (10,000 lights, MIS 1 + 1: 0.93x; docs/performance.md).
                 light_dim = (*stream).dim;
                 (*stream).dim += light_sample_requests(plan);
+            } else if CONE_SAMPLING && d.light != NO_LIGHT {
+                cone_sum += cone_sample_value(d, s);
             } else {
                 e.brdf += direction_sample_value(c, d, plan, hit.tri, s);
             }
@@ -461,14 +542,19 @@ fn estimate_radiance(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<fu
         }
         at_camera = false;
         // The next direction sample that needs a ray: one that adds something where it finds a
-        // light, and crosses some light's bounding sphere (traced only as far as that).
+        // light, and crosses some light's bounding sphere (traced only as far as that). After the
+        // m BRDF samples, the light samples that are directions in a round light's cone.
         d.valid = false;
-        while !d.valid && taken < plan.m {
-            d = sample_direction(c, stream);
+        while !d.valid && taken < plan.m + cone_passes(plan) {
+            if taken < plan.m {
+                d = sample_direction(c, stream);
+            } else {
+                d = cone_light_sample(c, plan, taken - plan.m, light_dim, *stream);
+            }
             taken += 1u;
             if d.valid {
                 origin = offset_ray_origin(c.s.p, c.s.ng, d.wi);
-                t_max = emitter_reach(origin, d.wi);
+                t_max = direction_reach(d, origin);
                 d.valid = t_max > 0.0;
             }
         }
@@ -481,6 +567,9 @@ fn estimate_radiance(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<fu
     }
     var light_stream = SampleStream((*stream).index, (*stream).seed, light_dim);
     e.light = estimate_light_samples(c, plan, &light_stream, rays);
+    if CONE_SAMPLING && plan.n > 0u {
+        e.light += cone_sum / f32(plan.n);
+    }
     return e;
 }
 

@@ -20,6 +20,7 @@ const SELECT_BSDF: u32 = 3u;
 
 const LIGHT_SAMPLING_AREA: u32 = 0u;
 const LIGHT_SAMPLING_SOLID_ANGLE: u32 = 1u;
+const LIGHT_SAMPLING_CONE: u32 = 2u;
 const SAMPLER_SOBOL: u32 = 0u;
 const SAMPLER_INDEPENDENT: u32 = 1u;
 
@@ -199,7 +200,9 @@ struct Light {
     // 1 where the area light is convex (crates/veach/src/gpu/light_subtrees.rs): a shadow ray
     // towards a point of it that faces the receiver skips the subtrees only its triangles fill.
     convex: u32,
-    _pad1: u32,
+    // 1 where the area light is convex and fills at least half of its bounding sphere's surface
+    // (light_subtrees.rs, is_round): LIGHT_SAMPLING_CONE samples it by the cone the sphere subtends.
+    round: u32,
     _pad2: u32,
 }
 
@@ -290,7 +293,8 @@ struct DeferredSample {
     rays: u32,
     // The camera sample's index (the pixel's own count of samples when its round began).
     sample: u32,
-    _pad1: u32,
+    // The plan's light_weighting (integrator.wgsl's LIGHT_*), for its cone light samples.
+    light_weighting: u32,
     _pad2: u32,
 }
 

@@ -275,6 +275,53 @@ fn sample_area_light(index: u32, light: Light, x: vec3f, u_light: vec2f) -> Ligh
     return s;
 }
 
+// With LIGHT_SAMPLING_CONE, a round light (Light.round: convex, filling at least half of its
+// bounding sphere's surface) seen from outside that sphere is sampled by the cone the sphere
+// subtends: a direction uniform in the cone (pdf 1 / Ω), traced to its closest hit, which counts
+// where it is the chosen light (pbrt-v4 §6.2.4, Sphere::Sample; Shirley et al. 1996). Area
+// sampling sends about half of a sphere's samples to its far side and weighs the rest by
+// r² / (|cos θ_l| A), unbounded at the silhouette; the cone's density is constant over the
+// light. Anything else keeps area sampling.
+fn cone_sampled(light: Light, x: vec3f) -> bool {
+    if !CONE_SAMPLING || frame.light_sampling != LIGHT_SAMPLING_CONE || light.kind != LIGHT_AREA || light.round == 0u {
+        return false;
+    }
+    let d = light.position - x;
+    return dot(d, d) > light.bound_radius * light.bound_radius;
+}
+
+// The cone from x around the bounding sphere of `light`: its axis, sin²θ_max and 1 − cos θ_max,
+// the latter as sin²θ_max / (1 + cos θ_max), which does not cancel for small, distant spheres.
+struct BoundingCone {
+    axis: vec3f,
+    sin2_max: f32,
+    one_minus_cos_max: f32,
+}
+
+fn bounding_cone(light: Light, x: vec3f) -> BoundingCone {
+    let d = light.position - x;
+    let dist_sq = dot(d, d);
+    let sin2_max = min(light.bound_radius * light.bound_radius / dist_sq, 1.0);
+    let cos_max = sqrt(1.0 - sin2_max);
+    return BoundingCone(d * inverseSqrt(dist_sq), sin2_max, sin2_max / (1.0 + cos_max));
+}
+
+// Directions uniform in the cone: pdf 1 / (2π (1 − cos θ_max)) (the cone's solid angle).
+fn cone_pdf(cone: BoundingCone) -> f32 {
+    return 1.0 / (2.0 * PI * cone.one_minus_cos_max);
+}
+
+// A direction uniform in the cone: 1 − cos θ = u.x (1 − cos θ_max), sin²θ = (1 − cos θ)(1 + cos θ)
+// written without the cancellation, φ = 2π u.y about the axis.
+fn sample_cone(cone: BoundingCone, u: vec2f) -> vec3f {
+    let one_minus_cos = u.x * cone.one_minus_cos_max;
+    let cos_theta = 1.0 - one_minus_cos;
+    let sin_theta = sqrt(max(one_minus_cos * (2.0 - one_minus_cos), 0.0));
+    let phi = 2.0 * PI * u.y;
+    let f = frame_from_normal(cone.axis);
+    return normalize(frame_to_world(f, vec3f(sin_theta * cos(phi), sin_theta * sin(phi), cos_theta)));
+}
+
 // Spot cone falloff as KHR_lights_punctual recommends ("Inner and Outer Cone Angles"):
 // smooth attenuation squared between the outer and inner cone.
 fn spot_falloff(light: Light, wi: vec3f) -> f32 {
@@ -320,6 +367,11 @@ fn area_light_pdf(index: u32, x: vec3f, v: TrianglePositions, y: vec3f) -> f32 {
 
 // The same density once light `index` is chosen (sample_area_light's pdf).
 fn area_light_direction_pdf(index: u32, x: vec3f, v: TrianglePositions, y: vec3f) -> f32 {
+    let light = light_at(index);
+    if cone_sampled(light, x) {
+        // Every point of the light lies in its bounding sphere, so in the cone.
+        return cone_pdf(bounding_cone(light, x));
+    }
     let n = cross(v.p1 - v.p0, v.p2 - v.p0);
     let omega = spherical_sampling_solid_angle(x, v.p0, v.p1, v.p2);
     if omega > 0.0 {

@@ -96,8 +96,17 @@ fn run_test(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) 
             write_sample(i, s.wi, s.pdf, bsdf_pdf(p, wo, s.wi), weight);
         }
         case TEST_SAMPLE_LIGHT: {
-            let ls = sample_light(test.light_index, test.point, u.xy);
-            write_sample(i, ls.wi, ls.pdf, traced_light_pdf(test.point, ls.wi), 0.0);
+            let light = lights[test.light_index];
+            if cone_sampled(light, test.point) {
+                // A direction in the bounding cone: a sample where its ray finds the light.
+                let cone = bounding_cone(light, test.point);
+                let wi = sample_cone(cone, u.xy);
+                let pdf_eval = traced_light_pdf(test.point, wi);
+                write_sample(i, wi, select(0.0, cone_pdf(cone), pdf_eval > 0.0), pdf_eval, 0.0);
+            } else {
+                let ls = sample_light(test.light_index, test.point, u.xy);
+                write_sample(i, ls.wi, ls.pdf, traced_light_pdf(test.point, ls.wi), 0.0);
+            }
         }
         case TEST_SAMPLE_STREAM: {
             let q = test_in[i];

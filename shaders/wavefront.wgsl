@@ -8,8 +8,9 @@
 //                           appended to `deferred`.
 //   prepare_direction_pass  one thread: the indirect dispatch arguments for the queue's length;
 //                           empties the queue for the next round.
-//   render_direction_pass   per deferred sample: its m direction samples, then the whole
-//                           sample is added to its pixel.
+//   render_direction_pass   per deferred sample: its m direction samples (and the light
+//                           samples that are directions in a round light's cone), then the
+//                           whole sample is added to its pixel.
 // A dispatch runs these three once per camera sample (a round), so that a pixel has at most one
 // deferred sample at a time and the last kernel adds to its sums without atomics.
 // The sample stream continues where the light samples left it, so the image is the one
@@ -43,9 +44,9 @@ fn render_light_pass(@builtin(global_invocation_id) gid: vec3u) {
             counters[pixel].truncated += 1u;
             return;
         }
-        if plan.m > 0u {
+        if plan.m + cone_passes(plan) > 0u {
             let slot = atomicAdd(&deferred_header.count, 1u);
-            deferred[slot] = DeferredSample(e.emitted, pixel, e.light, stream.dim, hit.tri, hit.b1, hit.b2, plan.n | (plan.m << 16u), rays, sample, 0u, 0u);
+            deferred[slot] = DeferredSample(e.emitted, pixel, e.light, stream.dim, hit.tri, hit.b1, hit.b2, plan.n | (plan.m << 16u), rays, sample, plan.light_weighting, 0u);
             return;
         }
     }
@@ -68,27 +69,51 @@ fn prepare_direction_pass() {
     deferred_dispatch[2] = 1u;
 }
 
-// The m direction samples of a deferred camera sample: the samples estimate_radiance's loop
-// takes after the camera hit, in the same order from the same random stream.
-fn estimate_direction_samples(c: ShadingContext, plan: SamplePlan, stream: ptr<function, SampleStream>, rays: ptr<function, u32>) -> vec3f {
-    var sum = vec3f(0.0);
-    for (var k = 0u; k < plan.m; k++) {
-        let d = sample_direction(c, stream);
+// What the direction passes of a deferred camera sample add: the m direction samples (brdf,
+// over m) and the cone light samples (light, over n).
+struct DirectionEstimates {
+    brdf: vec3f,
+    light: vec3f,
+}
+
+// The direction samples of a deferred camera sample: the samples estimate_radiance's loop takes
+// after the camera hit, in the same order from the same random stream; the light samples' requests
+// start at `light_dim`.
+fn estimate_direction_samples(c: ShadingContext, plan: SamplePlan, light_dim: u32, stream: ptr<function, SampleStream>, rays: ptr<function, u32>) -> DirectionEstimates {
+    var sum = DirectionEstimates(vec3f(0.0), vec3f(0.0));
+    for (var k = 0u; k < plan.m + cone_passes(plan); k++) {
+        var d: DirectionSample;
+        if k < plan.m {
+            d = sample_direction(c, stream);
+        } else {
+            d = cone_light_sample(c, plan, k - plan.m, light_dim, *stream);
+        }
         if !d.valid {
             continue;
         }
         let origin = offset_ray_origin(c.s.p, c.s.ng, d.wi);
-        let t_max = emitter_reach(origin, d.wi);
+        let t_max = direction_reach(d, origin);
         if t_max <= 0.0 {
             continue;
         }
         *rays += 1u;
         let hit = trace_closest(origin, d.wi, t_max);
         if hit.found {
-            sum += direction_sample_value(c, d, plan, hit.tri, surface_at(hit, d.wi));
+            let e = surface_at(hit, d.wi);
+            if CONE_SAMPLING && d.light != NO_LIGHT {
+                sum.light += cone_sample_value(d, e);
+            } else {
+                sum.brdf += direction_sample_value(c, d, plan, hit.tri, e);
+            }
         }
     }
-    return sum / f32(plan.m);
+    if plan.m > 0u {
+        sum.brdf /= f32(plan.m);
+    }
+    if plan.n > 0u {
+        sum.light /= f32(plan.n);
+    }
+    return sum;
 }
 
 @compute @workgroup_size(64, 1, 1)
@@ -105,14 +130,14 @@ fn render_direction_pass(@builtin(global_invocation_id) gid: vec3u) {
     let ray = camera_ray(vec2u(x, y), sample_2d(&stream));
     let hit = Hit(0.0, q.b1, q.b2, q.tri, true);
     let c = shading_context(surface_at(hit, ray.dir), ray.dir);
-    let plan = SamplePlan(q.plan & 0xffffu, LIGHT_ALONE, q.plan >> 16u);
-    // The stream where the light samples left it.
+    let plan = SamplePlan(q.plan & 0xffffu, q.light_weighting, q.plan >> 16u);
+    // The stream where the light samples left it, after their requests.
     stream.dim = q.stream_dim;
     var rays = q.rays;
-    let brdf = estimate_direction_samples(c, plan, &stream, &rays);
+    let found = estimate_direction_samples(c, plan, q.stream_dim - light_sample_requests(plan), &stream, &rays);
     if !loop_budget_held() {
         counters[q.pixel].truncated += 1u;
         return;
     }
-    add_sample(q.pixel, Estimate(q.emitted, q.light, brdf), rays);
+    add_sample(q.pixel, Estimate(q.emitted, q.light + found.light, found.brdf), rays);
 }

@@ -504,6 +504,58 @@ fn area_light_sampling_matches_the_solid_angle_pdf() {
     run_all(&cases);
 }
 
+/// Round lights sampled by their bounding cones (LIGHT_SAMPLING_CONE): a direction uniform in the
+/// cone is a sample where its ray finds the light, so the samples must be uniform over the
+/// tessellated sphere's silhouette and the pdf function (the cone's 1/Ω, for a direction traced to
+/// the light) must integrate to the fraction of them that hit. A coarse sphere (12 × 6), so that
+/// the cone's corners around its silhouette are missed often; seen from near (the cone 39° wide)
+/// and far. And a square light, not round: it keeps area sampling in the same mode.
+#[test]
+fn cone_light_sampling_is_uniform_over_the_spheres_silhouette() {
+    let leak = |s: GpuScene| -> &'static GpuScene { Box::leak(Box::new(s)) };
+    let centre = Vec3::new(0.2, -0.1, 2.0);
+    let sphere = leak({
+        let mut g = GltfBuilder::new();
+        let m = g.material(&MaterialDesc::emitter("light", Vec3::ONE));
+        g.add_mesh("light", &MeshData::sphere(centre, 0.5, 12, 6), m, glam::Mat4::IDENTITY);
+        upload(&load(&g, "chi2-cone-sphere"))
+    });
+    let quad = leak(light_scene(
+        "chi2-cone-quad",
+        &[(
+            Vec3::new(-0.5, -0.5, 1.0),
+            Vec3::new(0.5, -0.5, 1.0),
+            Vec3::new(0.5, 0.5, 1.0),
+            Vec3::new(-0.5, 0.5, 1.0),
+            -Vec3::Z,
+        )],
+    ));
+    let case = |name: &str, scene: &'static GpuScene, point: Vec3, center: Vec3, radius: f64| {
+        let to_center = (center - point).as_dvec3();
+        DirectionCase {
+            name: format!("{name}, cone"),
+            scene,
+            frame: FrameParams {
+                light_sampling: layout::LIGHT_SAMPLING_CONE,
+                ..frame(1, layout::SELECT_EACH, layout::HEURISTIC_BALANCE)
+            },
+            params: TestParams {
+                routine: routine::SAMPLE_LIGHT,
+                seed: 7,
+                point: point.to_array(),
+                ..Default::default()
+            },
+            pdf_routine: routine::PDF_LIGHT,
+            bins: SphereBins::new(to_center, radius / to_center.length()),
+        }
+    };
+    run_all(&[
+        case("sphere near", sphere, centre - Vec3::new(0.0, 0.3, 0.7), centre, 0.5),
+        case("sphere far", sphere, centre + Vec3::new(3.0, 1.0, -9.0), centre, 0.5),
+        case("quad (area sampled)", quad, Vec3::new(0.0, 0.0, 0.5), Vec3::new(0.0, 0.0, 1.0), 0.7),
+    ]);
+}
+
 #[test]
 fn light_selection_matches_its_probabilities() {
     // Six point lights whose powers span three orders of magnitude.

@@ -9,7 +9,7 @@ use std::time::Duration;
 use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData, Punctual};
 use veach::features::KernelKey;
 use veach::gpu::baked_triangles::BAKED_TRIANGLES_MAX;
-use veach::{Execution, LightSelection, RenderSettings, Strategy};
+use veach::{Execution, LightSampling, LightSelection, RenderSettings, Strategy};
 
 fn point_lit_plane() -> veach::Scene {
     let mut g = GltfBuilder::new();
@@ -52,9 +52,12 @@ fn specialised_kernels_render_the_generic_kernels_image() {
         let camera = scene.camera(None).unwrap();
         let gpu_scene = upload(&scene);
         for strategy in Strategy::ALL {
-            for (write_aovs, light_selection) in
-                [(false, LightSelection::Power), (true, LightSelection::Power), (false, LightSelection::Bsdf)]
-            {
+            for (write_aovs, light_selection, light_sampling) in [
+                (false, LightSelection::Power, LightSampling::Area),
+                (true, LightSelection::Power, LightSampling::Area),
+                (false, LightSelection::Bsdf, LightSampling::Area),
+                (true, LightSelection::Bsdf, LightSampling::Cone),
+            ] {
                 let settings = RenderSettings {
                     width: 24,
                     height: 16,
@@ -63,6 +66,7 @@ fn specialised_kernels_render_the_generic_kernels_image() {
                     light_samples: 2,
                     brdf_samples: 2,
                     light_selection,
+                    light_sampling,
                     write_aovs,
                     seed: 9,
                     ..Default::default()
@@ -80,7 +84,7 @@ fn specialised_kernels_render_the_generic_kernels_image() {
                 assert!(generic.kernel.baked.is_none());
                 assert_eq!(
                     special.sum, generic.sum,
-                    "{name} {strategy:?} {light_selection:?} aovs {write_aovs}: images differ"
+                    "{name} {strategy:?} {light_selection:?} {light_sampling:?} aovs {write_aovs}: images differ"
                 );
                 if write_aovs {
                     let (a, b) = (special.contributions.unwrap(), generic.contributions.unwrap());
@@ -103,10 +107,12 @@ fn wavefront_kernels_render_the_megakernels_image() {
         let gpu_scene = upload(&scene);
         for strategy in Strategy::ALL {
             // The second case also chooses lights per point: the direction kernel rebuilds the
-            // point's table from the deferred hit.
-            for (write_aovs, dispatch_target, light_selection) in [
-                (false, Duration::from_secs(1), LightSelection::Power),
-                (true, Duration::from_nanos(1), LightSelection::Bsdf),
+            // point's table from the deferred hit. The third samples round lights by their cones,
+            // light samples that the direction kernel takes.
+            for (write_aovs, dispatch_target, light_selection, light_sampling) in [
+                (false, Duration::from_secs(1), LightSelection::Power, LightSampling::Area),
+                (true, Duration::from_nanos(1), LightSelection::Bsdf, LightSampling::Area),
+                (true, Duration::from_nanos(1), LightSelection::Power, LightSampling::Cone),
             ] {
                 let settings = RenderSettings {
                     width: 24,
@@ -116,6 +122,7 @@ fn wavefront_kernels_render_the_megakernels_image() {
                     light_samples: 2,
                     brdf_samples: 2,
                     light_selection,
+                    light_sampling,
                     write_aovs,
                     dispatch_target,
                     seed: 5,
@@ -129,7 +136,7 @@ fn wavefront_kernels_render_the_megakernels_image() {
                     &camera,
                 );
                 assert!(!mega.kernel.wavefront && wave.kernel.wavefront);
-                let what = format!("{name} {strategy:?} {light_selection:?} aovs {write_aovs}");
+                let what = format!("{name} {strategy:?} {light_selection:?} {light_sampling:?} aovs {write_aovs}");
                 assert_eq!(wave.sum, mega.sum, "{what}: images differ");
                 assert_eq!(wave.sum_sq, mega.sum_sq, "{what}: sums of squares differ");
                 assert_eq!((wave.rays, wave.nonfinite_samples), (mega.rays, mega.nonfinite_samples), "{what}");

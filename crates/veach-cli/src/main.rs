@@ -133,6 +133,8 @@ enum LightSamplingArg {
     Area,
     /// A direction uniform in the emitter triangle's solid angle (Arvo 1995; pdf 1/Ω)
     SolidAngle,
+    /// Spheres (round convex lights): a direction uniform in their bounding cone (pdf 1/Ω), traced to the light; other lights by area
+    Cone,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -528,6 +530,7 @@ fn light_sampling_of(arg: LightSamplingArg) -> LightSampling {
     match arg {
         LightSamplingArg::Area => LightSampling::Area,
         LightSamplingArg::SolidAngle => LightSampling::SolidAngle,
+        LightSamplingArg::Cone => LightSampling::Cone,
     }
 }
 

@@ -384,6 +384,7 @@ impl ViewerApp {
                 ui.label("point on a light, uniform in");
                 ui.radio_value(&mut c.light_sampling, LightSampling::Area, "area");
                 ui.radio_value(&mut c.light_sampling, LightSampling::SolidAngle, "solid angle");
+                ui.radio_value(&mut c.light_sampling, LightSampling::Cone, "cone (spheres)");
             });
         });
         ui.horizontal(|ui| {

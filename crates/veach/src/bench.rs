@@ -45,20 +45,21 @@ pub fn default_strategies() -> Vec<BenchStrategy> {
 }
 
 /// Every strategy `--strategies` can name: the defaults, the light-sampling ones again with
-/// solid-angle sampling of emitter triangles (suffix `-solid-angle`), and each of those with
+/// solid-angle sampling of emitter triangles (suffix `-solid-angle`) and with round lights sampled
+/// by their bounding cones (suffix `-cone`), and each of those with
 /// independent random numbers instead of Sobol points (suffix `-independent`).
 pub fn strategy_catalogue() -> Vec<BenchStrategy> {
     let mut all = area_strategies();
-    let solid: Vec<BenchStrategy> = all
-        .iter()
-        .filter(|s| s.strategy.samples_lights())
-        .map(|s| BenchStrategy {
-            name: format!("{}-solid-angle", s.name),
-            light_sampling: LightSampling::SolidAngle,
-            ..s.clone()
-        })
-        .collect();
+    let by = |suffix: &str, light_sampling: LightSampling, all: &[BenchStrategy]| -> Vec<BenchStrategy> {
+        all.iter()
+            .filter(|s| s.strategy.samples_lights())
+            .map(|s| BenchStrategy { name: format!("{}-{suffix}", s.name), light_sampling, ..s.clone() })
+            .collect()
+    };
+    let solid = by("solid-angle", LightSampling::SolidAngle, &all);
+    let cone = by("cone", LightSampling::Cone, &all);
     all.extend(solid);
+    all.extend(cone);
     let independent: Vec<BenchStrategy> = all
         .iter()
         .map(|s| BenchStrategy { name: format!("{}-independent", s.name), sampler: Sampler::Independent, ..s.clone() })

@@ -135,6 +135,8 @@ pub struct KernelKey {
     pub aovs: bool,
     /// Light samples may be taken by solid angle (`LightSampling::SolidAngle`).
     pub solid_angle: bool,
+    /// Light samples may be directions in round lights' bounding cones (`LightSampling::Cone`).
+    pub cone: bool,
     /// Lights may be chosen per shading point (`LightSelection::Bsdf`).
     pub point_selection: bool,
     /// The scene has exactly one light (`SceneFeatures::single_light`).
@@ -166,6 +168,7 @@ impl KernelKey {
             mirrors: true,
             aovs: true,
             solid_angle: true,
+            cone: true,
             point_selection: true,
             single_light: false,
             textures: true,
@@ -197,6 +200,7 @@ impl KernelKey {
             mirrors: features.any_mirror,
             aovs: settings.write_aovs,
             solid_angle: features.area_lights && settings.light_sampling == crate::render::LightSampling::SolidAngle,
+            cone: features.area_lights && settings.light_sampling == crate::render::LightSampling::Cone,
             point_selection: !features.single_light
                 && settings.light_selection == crate::render::LightSelection::Bsdf
                 && effective_strategy(features, settings).0.samples_lights(),
@@ -234,6 +238,7 @@ impl KernelKey {
             ("HAS_MIRRORS", flag(self.mirrors)),
             ("HAS_AOVS", flag(self.aovs)),
             ("SOLID_ANGLE_SAMPLING", flag(self.solid_angle)),
+            ("CONE_SAMPLING", flag(self.cone)),
             ("POINT_LIGHT_SELECTION", flag(self.point_selection)),
             ("SINGLE_LIGHT", flag(self.single_light)),
         ];

@@ -60,6 +60,11 @@ pub enum LightSampling {
     /// area sampling's r² / cos θ_l blows up (contact edges, grazing angles). Triangles that
     /// subtend less than 3e-4 sr keep area sampling.
     SolidAngle,
+    /// Round lights (convex, filling at least half of their bounding sphere's surface: a
+    /// tessellated sphere) seen from outside that sphere: a direction uniform in the cone it
+    /// subtends (pbrt-v4's `Sphere::Sample`), p_ω = P(light) / Ω, traced to its closest hit. Every
+    /// other light by area.
+    Cone,
 }
 
 /// Where a camera sample's random numbers come from (shaders/sampler.wgsl).
@@ -105,6 +110,7 @@ impl LightSampling {
         match self {
             LightSampling::Area => "area",
             LightSampling::SolidAngle => "solid-angle",
+            LightSampling::Cone => "cone",
         }
     }
 }
@@ -709,6 +715,7 @@ impl Renderer {
             light_sampling: match s.light_sampling {
                 LightSampling::Area => layout::LIGHT_SAMPLING_AREA,
                 LightSampling::SolidAngle => layout::LIGHT_SAMPLING_SOLID_ANGLE,
+                LightSampling::Cone => layout::LIGHT_SAMPLING_CONE,
             },
             sampler: match s.sampler {
                 Sampler::Sobol => layout::SAMPLER_SOBOL,

@@ -20,6 +20,7 @@ pub const SELECT_BSDF: u32 = 3;
 
 pub const LIGHT_SAMPLING_AREA: u32 = 0;
 pub const LIGHT_SAMPLING_SOLID_ANGLE: u32 = 1;
+pub const LIGHT_SAMPLING_CONE: u32 = 2;
 pub const SAMPLER_SOBOL: u32 = 0;
 pub const SAMPLER_INDEPENDENT: u32 = 1;
 
@@ -195,7 +196,10 @@ pub struct Light {
     /// 1 where the area light is convex (`gpu::light_subtrees::is_convex`): its shadow rays skip
     /// the subtrees that only its triangles fill.
     pub convex: u32,
-    pub _pad1: u32,
+    /// 1 where the area light is convex and fills at least half of its bounding sphere's surface
+    /// (`gpu::light_subtrees::is_round`): `LightSampling::Cone` samples it by the cone that sphere
+    /// subtends.
+    pub round: u32,
     pub _pad2: u32,
 }
 
@@ -257,7 +261,8 @@ pub struct DeferredSample {
     pub plan: u32,
     pub rays: u32,
     pub sample: u32,
-    pub _pad: [u32; 2],
+    pub light_weighting: u32,
+    pub _pad2: u32,
 }
 
 /// The wavefront's rounds: samples deferred by one, waiting for the next (shaders/layout.wgsl);
@@ -343,14 +348,14 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             cos_outer,
             bound_radius,
             convex,
-            _pad1,
+            round,
             _pad2
         }),
         layout!(EmitterTriangle { p0, alias_prob, e1, alias_index, e2, light }),
         layout!(LightPick { pdf, alias_prob, alias_index }),
         layout!(TestParams { routine, count, seed, light_index, wo, point, material }),
         layout!(PixelCounters { rays, nonfinite, truncated }),
-        layout!(DeferredSample { emitted, pixel, light, stream_dim, tri, b1, b2, plan, rays, sample }),
+        layout!(DeferredSample { emitted, pixel, light, stream_dim, tri, b1, b2, plan, rays, sample, light_weighting }),
         layout!(DeferredHeader { count, pending }),
     ]
 }

@@ -40,6 +40,19 @@ pub fn is_convex(triangles: &[[Vec3; 3]]) -> bool {
     })
 }
 
+/// Is a light, convex (`is_convex`, which the caller tests), round enough to be sampled by the cone its bounding sphere (of `radius`)
+/// subtends (`LightSampling::Cone`)? A convex body's projected area averaged over all directions
+/// is a quarter of its surface area (Cauchy's surface area formula), so a direction uniform in the
+/// cone meets the light with probability about A / (4π r²) for a distant receiver. Area sampling
+/// of a convex light wastes about half its samples on the side facing away; the cone is taken where
+/// it wastes no more: A / (4π r²) >= 1/2 (a tessellated sphere about 0.99, a cube 0.64, a square
+/// 0.16).
+pub fn is_round(triangles: &[[Vec3; 3]], radius: f32) -> bool {
+    let area: f64 = triangles.iter().map(|[p0, p1, p2]| 0.5 * (*p1 - *p0).cross(*p2 - *p0).length() as f64).sum();
+    let sphere = 4.0 * std::f64::consts::PI * (radius as f64).powi(2);
+    sphere > 0.0 && area >= 0.5 * sphere
+}
+
 /// A light tag for each host node of `bvh`: 1 + the light whose triangles alone fill the node's
 /// subtree where that light is `convex`, else 0. `triangle_light[t]` is the light of scene
 /// triangle t, or `NO_LIGHT`. A light that shares leaves with other triangles is tagged in the
@@ -117,6 +130,28 @@ mod tests {
     }
 
     #[test]
+    fn spheres_and_cubes_are_round_squares_and_inward_spheres_are_not() {
+        let round = |tris: &[[Vec3; 3]]| {
+            let points: Vec<Vec3> = tris.iter().flatten().copied().collect();
+            let lo = points.iter().fold(Vec3::INFINITY, |a, &p| a.min(p));
+            let hi = points.iter().fold(Vec3::NEG_INFINITY, |a, &p| a.max(p));
+            let centre = 0.5 * (lo + hi);
+            is_convex(tris) && is_round(tris, points.iter().map(|p| p.distance(centre)).fold(0.0, f32::max))
+        };
+        let sphere = triangles(&MeshData::sphere(Vec3::new(1.0, 2.0, 3.0), 0.5, 24, 12));
+        assert!(round(&sphere));
+        let inward: Vec<[Vec3; 3]> = sphere.iter().map(|&[a, b, c]| [a, c, b]).collect();
+        assert!(!round(&inward), "not convex");
+        let square = [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y];
+        assert!(!round(&[[square[0], square[1], square[2]], [square[0], square[2], square[3]]]), "A / 4πr² = 0.16");
+        // A unit cube: 6 / (4π · 3/4) = 0.64.
+        let footprint = [Vec3::ZERO, Vec3::X, Vec3::new(1.0, 0.0, 1.0), Vec3::Z];
+        let cube = triangles(&MeshData::prism(footprint, 1.0));
+        assert!(is_convex(&cube), "the prism is closed and outward");
+        assert!(round(&cube));
+    }
+
+    #[test]
     fn nodes_are_tagged_with_the_convex_light_that_alone_fills_them() {
         let mut tris = Vec::new();
         let mut light = Vec::new();
@@ -168,7 +203,7 @@ mod tests {
     }
 
     #[test]
-    fn the_veach_scenes_spheres_are_convex_and_their_subtrees_tagged() {
+    fn the_veach_scenes_spheres_are_convex_round_and_their_subtrees_tagged() {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/veach-mis.gltf");
         let scene = crate::load_gltf(&path).unwrap();
         let bvh = build_bvh(&scene.triangles);
@@ -177,6 +212,7 @@ mod tests {
         assert_eq!(arrays.lights.len(), 4);
         for (l, light) in arrays.lights.iter().enumerate() {
             assert_eq!(light.convex, 1, "light {l}");
+            assert_eq!(light.round, 1, "light {l} is a sphere: sampled by its cone");
             let tags =
                 arrays.bvh_nodes.iter().flat_map(|n| [n.lights_01, n.lights_23]).flat_map(|w| [w & 0xffff, w >> 16]);
             assert!(tags.filter(|&t| t == l as u32 + 1).count() > 0, "no subtree tagged with light {l}");

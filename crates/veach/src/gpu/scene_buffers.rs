@@ -2,7 +2,7 @@
 
 use super::bvh_nodes::encode_bvh_nodes;
 use super::layout::{self, NO_LIGHT};
-use super::light_subtrees::{is_convex, node_lights};
+use super::light_subtrees::{is_convex, is_round, node_lights};
 use crate::alias::alias_table;
 use crate::bvh::Bvh;
 use crate::features::SceneFeatures;
@@ -192,8 +192,12 @@ pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) ->
             _ => false,
         })
         .collect();
-    for (g, &c) in lights.iter_mut().zip(&convex) {
+    for ((g, &c), light) in lights.iter_mut().zip(&convex).zip(&scene.lights) {
         g.convex = c as u32;
+        if let LightKind::Area { triangles, .. } = &light.kind {
+            let tris: Vec<[Vec3; 3]> = triangles.iter().map(|&t| scene.triangles[t as usize].p).collect();
+            g.round = (c && is_round(&tris, g.bound_radius)) as u32;
+        }
     }
 
     // Lights by power; all dark (or no power at all): uniformly.
