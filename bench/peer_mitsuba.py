@@ -16,6 +16,10 @@ uploads excluded), Mitsuba's wall clock around mi.render after one untimed rende
 sample count (so that its JIT compilation is excluded too). relMSE = mean over pixels and
 channels of (x - r)^2 / (r^2 + 1e-2), efficiency = 1 / (relMSE x seconds).
 
+Light samples: by area on the chosen light's triangles, as Mitsuba samples its mesh emitters;
+`--veach-light-sampling cone` samples round lights (the Veach scene's spheres) by their bounding
+cones instead, a technique Mitsuba applies to its analytic `sphere` shapes but not to meshes.
+
 Samplers: veach uses its default, Owen-scrambled Sobol points (--veach-sampler). Mitsuba is run
 with each sampler of --mitsuba-samplers (default: `independent`, its default, and `multijitter`,
 its best at equal time on these scenes: docs/performance.md), one table each, so that veach is
@@ -73,11 +77,12 @@ def run(cmd):
 
 
 def veach_render(veach, scene, out, width, height, spp, seed, light, brdf, strategy="mis", selection="power",
-                 sampler="sobol", heuristic="power"):
+                 sampler="sobol", heuristic="power", light_sampling="area"):
     stats = out.with_suffix(".json")
     run([veach, "render", scene, "-o", out, "--width", str(width), "--height", str(height), "--spp", str(spp),
          "--seed", str(seed), "--strategy", strategy, "--light-samples", str(light), "--brdf-samples", str(brdf),
-         "--light-selection", selection, "--sampler", sampler, "--heuristic", heuristic, "--hide-emitters", "--stats", stats, "--quiet"])
+         "--light-selection", selection, "--sampler", sampler, "--heuristic", heuristic,
+         "--light-sampling", light_sampling, "--hide-emitters", "--stats", stats, "--quiet"])
     s = json.loads(stats.read_text())
     veach_render.driver = f"{s['adapter']}, {s.get('driver', 'driver unknown')}"
     return read_pfm(out), s["timings_seconds"]["render"]
@@ -97,6 +102,9 @@ def main():
     ap.add_argument("--veach-sampler", default="sobol", choices=["sobol", "independent"])
     ap.add_argument("--veach-light-selection", default="bsdf", choices=["power", "bsdf", "uniform"],
                     help="how veach's timed renders choose their one light (the reference samples each)")
+    ap.add_argument("--veach-light-sampling", default="area", choices=["area", "solid-angle", "cone"],
+                    help="how veach's timed renders sample a point or direction on the chosen light: area (the "
+                         "same technique as Mitsuba's mesh emitters), or cone (spheres by their bounding cone)")
     ap.add_argument("--mitsuba-samplers", default="independent,multijitter",
                     help="comma-separated Mitsuba sampler plugins, one table each")
     args = ap.parse_args()
@@ -151,7 +159,8 @@ def main():
         for spp in budgets:
             for seed in range(1, args.seeds + 1):
                 img, seconds = veach_render(args.veach, scene, out_dir / f"{name}-veach.pfm", w, h, spp, seed, 1, 1,
-                                            selection=args.veach_light_selection, sampler=args.veach_sampler)
+                                            selection=args.veach_light_selection, sampler=args.veach_sampler,
+                                            light_sampling=args.veach_light_sampling)
                 e = relmse(img, reference)
                 rows.append((name, "veach", spp, seed, seconds, e, e))
                 line = f"{name} spp {spp} seed {seed}: veach {seconds:.3f} s relMSE {e:.3e}"
@@ -179,7 +188,8 @@ def main():
         for r in rows:
             f.write(",".join(str(v) for v in r) + "\n")
     # lavapipe's speed depends on the Mesa release (22.3 against 25: 1.4-3.3x), so say which ran.
-    print(f"veach ({args.veach_sampler} sampler, lights by {args.veach_light_selection}) on {veach_render.driver}; "
+    print(f"veach ({args.veach_sampler} sampler, lights by {args.veach_light_selection}, "
+          f"{args.veach_light_sampling} light sampling) on {veach_render.driver}; "
           f"Mitsuba {mi.__version__} ({mi.variant()})")
     for sampler in samplers:
         print(f"\nMitsuba with the `{sampler}` sampler:\n")

@@ -23,6 +23,9 @@ pub struct SceneFeatures {
     /// Some used material is a perfect mirror (roughness 0).
     pub any_mirror: bool,
     pub double_sided_emitters: bool,
+    /// Some area light is round (`gpu::scene_buffers::is_round_light`), which
+    /// `LightSampling::Cone` samples by its bounding cone.
+    pub round_lights: bool,
     /// Textures in use, by kind.
     pub base_color_texture: bool,
     pub metallic_roughness_texture: bool,
@@ -50,6 +53,10 @@ impl SceneFeatures {
             any_glossy: materials().any(|m| glossy(&m)),
             any_mirror: materials().any(|m| glossy(&m) && m.roughness <= 0.0),
             double_sided_emitters: has(|k| matches!(k, LightKind::Area { double_sided: true, .. })),
+            round_lights: scene.lights.iter().any(|l| match &l.kind {
+                LightKind::Area { triangles, .. } => crate::gpu::scene_buffers::is_round_light(scene, triangles),
+                _ => false,
+            }),
             base_color_texture: materials().any(|m| m.base_color_texture.is_some()),
             metallic_roughness_texture: materials().any(|m| m.metallic_roughness_texture.is_some()),
             // An emissive texture matters only where the emissive factor is not zero.
@@ -75,6 +82,7 @@ impl SceneFeatures {
             }
         };
         add(self.area_lights, "area lights");
+        add(self.round_lights, "round lights");
         add(self.point_lights, "point lights");
         add(self.spot_lights, "spot lights");
         add(self.directional_lights, "directional lights");
@@ -200,7 +208,7 @@ impl KernelKey {
             mirrors: features.any_mirror,
             aovs: settings.write_aovs,
             solid_angle: features.area_lights && settings.light_sampling == crate::render::LightSampling::SolidAngle,
-            cone: features.area_lights && settings.light_sampling == crate::render::LightSampling::Cone,
+            cone: features.round_lights && settings.light_sampling == crate::render::LightSampling::Cone,
             point_selection: !features.single_light
                 && settings.light_selection == crate::render::LightSelection::Bsdf
                 && effective_strategy(features, settings).0.samples_lights(),

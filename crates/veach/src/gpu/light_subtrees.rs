@@ -208,6 +208,7 @@ mod tests {
         let scene = crate::load_gltf(&path).unwrap();
         let bvh = build_bvh(&scene.triangles);
         let features = crate::features::SceneFeatures::detect(&scene);
+        assert!(features.round_lights);
         let arrays = crate::gpu::scene_buffers::build_scene_arrays(&scene, &features, &bvh);
         assert_eq!(arrays.lights.len(), 4);
         for (l, light) in arrays.lights.iter().enumerate() {

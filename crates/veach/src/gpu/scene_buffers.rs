@@ -123,6 +123,18 @@ fn bounding_box(points: impl Iterator<Item = Vec3>) -> (Vec3, Vec3) {
     (lo - Vec3::splat(pad), hi + Vec3::splat(pad))
 }
 
+fn triangle_corners(scene: &Scene, triangles: &[u32]) -> Vec<[Vec3; 3]> {
+    triangles.iter().map(|&t| scene.triangles[t as usize].p).collect()
+}
+
+/// Is the area light of these scene triangles convex and round (`light_subtrees::is_round`, with
+/// the bounding sphere its GPU record gets)?
+pub fn is_round_light(scene: &Scene, triangles: &[u32]) -> bool {
+    let corners = triangle_corners(scene, triangles);
+    let (_, radius) = bounding_sphere(corners.iter().flatten().copied());
+    is_convex(&corners) && is_round(&corners, radius)
+}
+
 pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) -> SceneArrays {
     let mut triangle_light = vec![NO_LIGHT; scene.triangles.len()];
     let mut lights = Vec::with_capacity(scene.lights.len());
@@ -195,8 +207,7 @@ pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) ->
     for ((g, &c), light) in lights.iter_mut().zip(&convex).zip(&scene.lights) {
         g.convex = c as u32;
         if let LightKind::Area { triangles, .. } = &light.kind {
-            let tris: Vec<[Vec3; 3]> = triangles.iter().map(|&t| scene.triangles[t as usize].p).collect();
-            g.round = (c && is_round(&tris, g.bound_radius)) as u32;
+            g.round = (c && is_round(&triangle_corners(scene, triangles), g.bound_radius)) as u32;
         }
     }
 
