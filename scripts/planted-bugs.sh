@@ -33,7 +33,7 @@ bugs=(
   "shaders/lights.wgsl|return alias_pick(b, bucket.alias_prob, b.index, bucket.alias_index);|return alias_pick(b, bucket.alias_prob, bucket.alias_index, b.index);|sampling|light_selection|light alias table: bucket and alias swapped"
   "shaders/lights.wgsl|return alias_pick(b, bucket.alias_prob, ti, bucket.alias_index);|return DiscretePick(ti, b.frac);|sampling|area_light|emitter triangle chosen uniformly, not by area"
   "shaders/lights.wgsl|return DiscretePick(other, remap_above(b.frac, keep));|return DiscretePick(other, b.frac);|sampling|area_light|sample reuse: an alias outcome's number not rescaled"
-  "shaders/integrator.wgsl|            u.x = pick.u;\n||strategies|veach_mis|light choice's number reused unrescaled for the point"
+  "shaders/integrator.wgsl|        ch.u.x = pick.u;\n||strategies|veach_mis|light choice's number reused unrescaled for the point"
   "shaders/sampling.wgsl|return min(u / p, ONE_MINUS_EPSILON);|return min(u, ONE_MINUS_EPSILON);|sampling|area_light|sample reuse: the chosen outcome's number not rescaled"
   "shaders/bsdf.wgsl|sample_cosine_hemisphere(vec2f(remap_above(u.x, p_spec), u.y))|sample_cosine_hemisphere(u)|sampling|gltf_brdf|diffuse lobe sampled with the lobe choice's number"
   "shaders/sampler.wgsl|y ^= (y >> 4u) & 0x0f0f0f0fu;|y ^= (y >> 4u) & 0x0f0f0f0eu;|sampling|sobol_points|Sobol's second dimension: a wrong direction number"
@@ -64,12 +64,18 @@ bugs=(
   "crates/veach/src/render.rs|baked.mark_blockers(&arrays.triangle_lights, (!directional).then_some(&delta[..]));|let _ = directional; baked.mark_blockers(&arrays.triangle_lights, Some(&delta[..]));|specialise|wall_at_the_edge|baked shadow rays: a wall left out though a directional light shines across it"
   "crates/veach/src/gpu/baked_triangles.rs|\"hi\", &wgsl_vec3(hi));|\"hi\", &wgsl_vec3(lo));|specialise|triangles_compiled|baked triangles behind boxes: the box collapsed to its lower corner"
   "crates/veach/src/render.rs|baked.mark_blockers(&arrays.triangle_lights, (!directional).then_some(&delta[..]));|let _ = (directional, &delta); baked.mark_blockers(&arrays.triangle_lights, Some(&[]));|specialise|wall_at_the_edge|baked shadow rays: a wall left out though a point light lies beyond it"
+  "shaders/lights.wgsl|let one_minus_cos = u.x * cone.one_minus_cos_max;|let one_minus_cos = sqrt(u.x) * cone.one_minus_cos_max;|sampling|cone_light|cone samples not uniform in solid angle"
+  "shaders/lights.wgsl|return BoundingCone(vec3f(0.0, 0.0, 1.0), 1.0, 2.0);|return BoundingCone(vec3f(0.0, 0.0, -1.0), 1.0, 1.0);|sampling|cone_light|inside the bounding sphere: a hemisphere, not every direction"
+  "shaders/lights.wgsl|    if cone_sampled(light) {\n        // Every point|    if false \u0026\u0026 cone_sampled(light) {\n        // Every point|strategies|cone_light|BRDF samples finding a round light weighed with its area pdf"
+  "shaders/wavefront.wgsl|SamplePlan(q.plan \u0026 0xffffu, q.light_weighting, q.plan >> 16u)|SamplePlan(q.plan \u0026 0xffffu, LIGHT_ALONE, q.plan >> 16u)|strategies|cone_light|the direction kernel's cone samples weighed as light sampling alone"
 )
 
 printf "%-52s %-10s %-16s %s\n" bug test filter result
 status=0
 for entry in "${bugs[@]}"; do
   IFS='|' read -r file from to test filter what <<<"$entry"
+  # ONLY=text runs the entries whose description contains it.
+  if [ -n "${ONLY:-}" ] && [[ "$what" != *"$ONLY"* ]]; then continue; fi
   rm -rf "$scratch/tree" && mkdir "$scratch/tree"
   git ls-files -z | xargs -0 -I{} cp --parents {} "$scratch/tree/"
   python3 - "$scratch/tree/$file" "$from" "$to" <<'PY'

@@ -25,6 +25,9 @@ override SOLID_ANGLE_SAMPLING: bool = true;
 // Light samples may pick directions in round lights' bounding cones (frame.light_sampling ==
 // LIGHT_SAMPLING_CONE): they are then traced as direction samples (integrator.wgsl).
 override CONE_SAMPLING: bool = true;
+// Some light sample may be a point on a light with a shadow ray; false where CONE_SAMPLING takes
+// every light (each is round), so the kernel has no shadow-ray traversal at all.
+override SHADOW_RAY_LIGHTS: bool = true;
 
 const STRATEGY_FROM_FRAME: u32 = 255u;
 

@@ -221,8 +221,8 @@ fn choose_light(plan: SamplePlan, k: u32, stream: ptr<function, SampleStream>) -
 }
 
 // Is a light sample with this choice traced as a direction sample (a round light's cone)?
-fn traced_as_direction(c: ShadingContext, ch: LightChoice) -> bool {
-    return CONE_SAMPLING && cone_sampled(light_at(ch.index), c.s.p);
+fn traced_as_direction(ch: LightChoice) -> bool {
+    return CONE_SAMPLING && cone_sampled(light_at(ch.index));
 }
 
 // The plan's light samples: n of each light (SELECT_EACH), or n of one light chosen per sample;
@@ -233,10 +233,15 @@ fn estimate_light_samples(c: ShadingContext, plan: SamplePlan, stream: ptr<funct
     if total == 0u {
         return vec3f(0.0);
     }
+    if !SHADOW_RAY_LIGHTS {
+        // All of them are cone samples; the stream moves past their requests all the same.
+        (*stream).dim += total;
+        return vec3f(0.0);
+    }
     var sum = vec3f(0.0);
     for (var k = 0u; k < total; k++) {
         let ch = choose_light(plan, k, stream);
-        if traced_as_direction(c, ch) {
+        if traced_as_direction(ch) {
             continue;
         }
         sum += light_sample_value(c, trace_light_sample(c, ch.index, ch.p_select, ch.u, rays), plan);
@@ -253,7 +258,7 @@ fn cone_light_sample(c: ShadingContext, plan: SamplePlan, k: u32, light_dim: u32
     var d = DirectionSample(c.s.ns, 0.0, vec3f(0.0), false, false, NO_LIGHT);
     var light_stream = SampleStream(stream.index, stream.seed, light_dim + k);
     let ch = choose_light(plan, k, &light_stream);
-    if !traced_as_direction(c, ch) {
+    if !traced_as_direction(ch) {
         return d;
     }
     let cone = bounding_cone(light_at(ch.index), c.s.p);

@@ -276,18 +276,18 @@ fn sample_area_light(index: u32, light: Light, x: vec3f, u_light: vec2f) -> Ligh
 }
 
 // With LIGHT_SAMPLING_CONE, a round light (Light.round: convex, filling at least half of its
-// bounding sphere's surface) seen from outside that sphere is sampled by the cone the sphere
-// subtends: a direction uniform in the cone (pdf 1 / Ω), traced to its closest hit, which counts
-// where it is the chosen light (pbrt-v4 §6.2.4, Sphere::Sample; Shirley et al. 1996). Area
-// sampling sends about half of a sphere's samples to its far side and weighs the rest by
-// r² / (|cos θ_l| A), unbounded at the silhouette; the cone's density is constant over the
-// light. Anything else keeps area sampling.
-fn cone_sampled(light: Light, x: vec3f) -> bool {
-    if !CONE_SAMPLING || frame.light_sampling != LIGHT_SAMPLING_CONE || light.kind != LIGHT_AREA || light.round == 0u {
+// bounding sphere's surface) is sampled by the cone its bounding sphere subtends: a direction
+// uniform in the cone (pdf 1 / Ω), traced to its closest hit, which counts where it is the chosen
+// light (pbrt-v4 §6.2.4, Sphere::Sample; Shirley et al. 1996); from inside the sphere, by a
+// direction uniform over all of them (pdf 1 / 4π). Area sampling sends about half of a sphere's
+// samples to its far side and weighs the rest by r² / (|cos θ_l| A), unbounded at the
+// silhouette; the cone's density is constant over the light. Other lights keep area sampling;
+// without SHADOW_RAY_LIGHTS the kernel has none.
+fn cone_sampled(light: Light) -> bool {
+    if !CONE_SAMPLING || frame.light_sampling != LIGHT_SAMPLING_CONE {
         return false;
     }
-    let d = light.position - x;
-    return dot(d, d) > light.bound_radius * light.bound_radius;
+    return !SHADOW_RAY_LIGHTS || (light.kind == LIGHT_AREA && light.round != 0u);
 }
 
 // The cone from x around the bounding sphere of `light`: its axis, sin²θ_max and 1 − cos θ_max,
@@ -301,7 +301,12 @@ struct BoundingCone {
 fn bounding_cone(light: Light, x: vec3f) -> BoundingCone {
     let d = light.position - x;
     let dist_sq = dot(d, d);
-    let sin2_max = min(light.bound_radius * light.bound_radius / dist_sq, 1.0);
+    let r_sq = light.bound_radius * light.bound_radius;
+    if !(dist_sq > r_sq) {
+        // Inside the sphere: the whole sphere of directions, 1 − cos θ_max = 2.
+        return BoundingCone(vec3f(0.0, 0.0, 1.0), 1.0, 2.0);
+    }
+    let sin2_max = r_sq / dist_sq;
     let cos_max = sqrt(1.0 - sin2_max);
     return BoundingCone(d * inverseSqrt(dist_sq), sin2_max, sin2_max / (1.0 + cos_max));
 }
@@ -368,7 +373,7 @@ fn area_light_pdf(index: u32, x: vec3f, v: TrianglePositions, y: vec3f) -> f32 {
 // The same density once light `index` is chosen (sample_area_light's pdf).
 fn area_light_direction_pdf(index: u32, x: vec3f, v: TrianglePositions, y: vec3f) -> f32 {
     let light = light_at(index);
-    if cone_sampled(light, x) {
+    if cone_sampled(light) {
         // Every point of the light lies in its bounding sphere, so in the cone.
         return cone_pdf(bounding_cone(light, x));
     }

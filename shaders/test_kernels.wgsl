@@ -97,7 +97,7 @@ fn run_test(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) 
         }
         case TEST_SAMPLE_LIGHT: {
             let light = lights[test.light_index];
-            if cone_sampled(light, test.point) {
+            if cone_sampled(light) {
                 // A direction in the bounding cone: a sample where its ray finds the light.
                 let cone = bounding_cone(light, test.point);
                 let wi = sample_cone(cone, u.xy);

@@ -509,7 +509,9 @@ fn area_light_sampling_matches_the_solid_angle_pdf() {
 /// tessellated sphere's silhouette and the pdf function (the cone's 1/Ω, for a direction traced to
 /// the light) must integrate to the fraction of them that hit. A coarse sphere (12 × 6), so that
 /// the cone's corners around its silhouette are missed often; seen from near (the cone 39° wide)
-/// and far. And a square light, not round: it keeps area sampling in the same mode.
+/// and far. A cube (round too: A / 4πr² = 0.64) from a point inside its bounding sphere, where
+/// the directions are uniform over the whole sphere. And a square light, not round: it keeps area
+/// sampling in the same mode.
 #[test]
 fn cone_light_sampling_is_uniform_over_the_spheres_silhouette() {
     let leak = |s: GpuScene| -> &'static GpuScene { Box::leak(Box::new(s)) };
@@ -519,6 +521,14 @@ fn cone_light_sampling_is_uniform_over_the_spheres_silhouette() {
         let m = g.material(&MaterialDesc::emitter("light", Vec3::ONE));
         g.add_mesh("light", &MeshData::sphere(centre, 0.5, 12, 6), m, glam::Mat4::IDENTITY);
         upload(&load(&g, "chi2-cone-sphere"))
+    });
+    let footprint =
+        [Vec3::new(-0.5, -0.5, 1.5), Vec3::new(0.5, -0.5, 1.5), Vec3::new(0.5, -0.5, 2.5), Vec3::new(-0.5, -0.5, 2.5)];
+    let cube = leak({
+        let mut g = GltfBuilder::new();
+        let m = g.material(&MaterialDesc::emitter("light", Vec3::ONE));
+        g.add_mesh("light", &MeshData::prism(footprint, 1.0), m, glam::Mat4::IDENTITY);
+        upload(&load(&g, "chi2-cone-cube"))
     });
     let quad = leak(light_scene(
         "chi2-cone-quad",
@@ -552,6 +562,8 @@ fn cone_light_sampling_is_uniform_over_the_spheres_silhouette() {
     run_all(&[
         case("sphere near", sphere, centre - Vec3::new(0.0, 0.3, 0.7), centre, 0.5),
         case("sphere far", sphere, centre + Vec3::new(3.0, 1.0, -9.0), centre, 0.5),
+        // 0.7 from the cube's centre, in front of its face at 0.5; its bounding sphere's radius is 0.87.
+        case("cube from inside its bounding sphere", cube, Vec3::new(0.1, 0.0, 1.3), Vec3::new(0.0, 0.0, 2.0), 0.87),
         case("quad (area sampled)", quad, Vec3::new(0.0, 0.0, 0.5), Vec3::new(0.0, 0.0, 1.0), 0.7),
     ]);
 }

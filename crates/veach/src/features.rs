@@ -26,6 +26,8 @@ pub struct SceneFeatures {
     /// Some area light is round (`gpu::scene_buffers::is_round_light`), which
     /// `LightSampling::Cone` samples by its bounding cone.
     pub round_lights: bool,
+    /// Every light is a round area light (and there is one).
+    pub all_lights_round: bool,
     /// Textures in use, by kind.
     pub base_color_texture: bool,
     pub metallic_roughness_texture: bool,
@@ -42,6 +44,14 @@ impl SceneFeatures {
         let materials = || scene.materials.iter().zip(&used).filter(|(_, u)| **u).map(|(m, _)| m);
         let glossy = |m: &&crate::scene::Material| m.metallic > 0.0 || m.specular > 0.0;
         let has = |f: fn(&LightKind) -> bool| scene.lights.iter().any(|l| f(&l.kind));
+        let round: Vec<bool> = scene
+            .lights
+            .iter()
+            .map(|l| match &l.kind {
+                LightKind::Area { triangles, .. } => crate::gpu::scene_buffers::is_round_light(scene, triangles),
+                _ => false,
+            })
+            .collect();
         SceneFeatures {
             area_lights: has(|k| matches!(k, LightKind::Area { .. })),
             point_lights: has(|k| matches!(k, LightKind::Point { .. })),
@@ -53,10 +63,8 @@ impl SceneFeatures {
             any_glossy: materials().any(|m| glossy(&m)),
             any_mirror: materials().any(|m| glossy(&m) && m.roughness <= 0.0),
             double_sided_emitters: has(|k| matches!(k, LightKind::Area { double_sided: true, .. })),
-            round_lights: scene.lights.iter().any(|l| match &l.kind {
-                LightKind::Area { triangles, .. } => crate::gpu::scene_buffers::is_round_light(scene, triangles),
-                _ => false,
-            }),
+            round_lights: round.iter().any(|&r| r),
+            all_lights_round: !round.is_empty() && round.iter().all(|&r| r),
             base_color_texture: materials().any(|m| m.base_color_texture.is_some()),
             metallic_roughness_texture: materials().any(|m| m.metallic_roughness_texture.is_some()),
             // An emissive texture matters only where the emissive factor is not zero.
@@ -145,6 +153,8 @@ pub struct KernelKey {
     pub solid_angle: bool,
     /// Light samples may be directions in round lights' bounding cones (`LightSampling::Cone`).
     pub cone: bool,
+    /// Light samples may be points with shadow rays: false where `cone` takes every light.
+    pub shadow_rays: bool,
     /// Lights may be chosen per shading point (`LightSelection::Bsdf`).
     pub point_selection: bool,
     /// The scene has exactly one light (`SceneFeatures::single_light`).
@@ -177,6 +187,7 @@ impl KernelKey {
             aovs: true,
             solid_angle: true,
             cone: true,
+            shadow_rays: true,
             point_selection: true,
             single_light: false,
             textures: true,
@@ -209,6 +220,7 @@ impl KernelKey {
             aovs: settings.write_aovs,
             solid_angle: features.area_lights && settings.light_sampling == crate::render::LightSampling::SolidAngle,
             cone: features.round_lights && settings.light_sampling == crate::render::LightSampling::Cone,
+            shadow_rays: !(features.all_lights_round && settings.light_sampling == crate::render::LightSampling::Cone),
             point_selection: !features.single_light
                 && settings.light_selection == crate::render::LightSelection::Bsdf
                 && effective_strategy(features, settings).0.samples_lights(),
@@ -247,6 +259,7 @@ impl KernelKey {
             ("HAS_AOVS", flag(self.aovs)),
             ("SOLID_ANGLE_SAMPLING", flag(self.solid_angle)),
             ("CONE_SAMPLING", flag(self.cone)),
+            ("SHADOW_RAY_LIGHTS", flag(self.shadow_rays)),
             ("POINT_LIGHT_SELECTION", flag(self.point_selection)),
             ("SINGLE_LIGHT", flag(self.single_light)),
         ];
