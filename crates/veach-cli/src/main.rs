@@ -205,7 +205,7 @@ struct RenderArgs {
     heuristic: HeuristicArg,
     #[arg(long, value_enum, default_value_t = SelectionArg::Each)]
     light_selection: SelectionArg,
-    /// How a light sample picks its point on an emitter triangle
+    /// How a light sample picks its point on an emitter triangle, or its direction towards a round light
     #[arg(long, value_enum, default_value_t = LightSamplingArg::Area)]
     light_sampling: LightSamplingArg,
     /// Where the camera samples' random numbers come from
@@ -282,7 +282,7 @@ struct ViewArgs {
     heuristic: HeuristicArg,
     #[arg(long, value_enum, default_value_t = SelectionArg::Power)]
     light_selection: SelectionArg,
-    /// How a light sample picks its point on an emitter triangle
+    /// How a light sample picks its point on an emitter triangle, or its direction towards a round light
     #[arg(long, value_enum, default_value_t = LightSamplingArg::Area)]
     light_sampling: LightSamplingArg,
     /// Where the camera samples' random numbers come from
