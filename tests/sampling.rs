@@ -425,6 +425,28 @@ fn gltf_brdf_sampling_matches_its_mixture_pdf() {
     run_all(&cases);
 }
 
+/// A unit square light at z = 1 facing down.
+fn unit_quad_light(name: &str) -> GpuScene {
+    light_scene(
+        name,
+        &[(
+            Vec3::new(-0.5, -0.5, 1.0),
+            Vec3::new(0.5, -0.5, 1.0),
+            Vec3::new(0.5, 0.5, 1.0),
+            Vec3::new(-0.5, 0.5, 1.0),
+            -Vec3::Z,
+        )],
+    )
+}
+
+/// A scene of one light, `mesh`, of radiance 1.
+fn mesh_light(name: &str, mesh: &MeshData) -> GpuScene {
+    let mut g = GltfBuilder::new();
+    let m = g.material(&MaterialDesc::emitter("light", Vec3::ONE));
+    g.add_mesh("light", mesh, m, glam::Mat4::IDENTITY);
+    upload(&load(&g, name))
+}
+
 /// Light scenes for area sampling: (name, light triangles, the receiving point).
 fn light_scene(name: &str, quads: &[(Vec3, Vec3, Vec3, Vec3, Vec3)]) -> GpuScene {
     let mut g = GltfBuilder::new();
@@ -442,16 +464,7 @@ fn area_light_sampling_matches_the_solid_angle_pdf() {
     let leak = |s: GpuScene| -> &'static GpuScene { Box::leak(Box::new(s)) };
     // A unit quad at z = 1 facing down, seen from points near and far, head-on and grazing;
     // and a light of two unequal quads (triangle selection by area).
-    let quad = leak(light_scene(
-        "chi2-quad",
-        &[(
-            Vec3::new(-0.5, -0.5, 1.0),
-            Vec3::new(0.5, -0.5, 1.0),
-            Vec3::new(0.5, 0.5, 1.0),
-            Vec3::new(-0.5, 0.5, 1.0),
-            -Vec3::Z,
-        )],
-    ));
+    let quad = leak(unit_quad_light("chi2-quad"));
     let two = leak(light_scene(
         "chi2-two-quads",
         &[
@@ -516,30 +529,11 @@ fn area_light_sampling_matches_the_solid_angle_pdf() {
 fn cone_light_sampling_is_uniform_over_the_spheres_silhouette() {
     let leak = |s: GpuScene| -> &'static GpuScene { Box::leak(Box::new(s)) };
     let centre = Vec3::new(0.2, -0.1, 2.0);
-    let sphere = leak({
-        let mut g = GltfBuilder::new();
-        let m = g.material(&MaterialDesc::emitter("light", Vec3::ONE));
-        g.add_mesh("light", &MeshData::sphere(centre, 0.5, 12, 6), m, glam::Mat4::IDENTITY);
-        upload(&load(&g, "chi2-cone-sphere"))
-    });
+    let sphere = leak(mesh_light("chi2-cone-sphere", &MeshData::sphere(centre, 0.5, 12, 6)));
     let footprint =
         [Vec3::new(-0.5, -0.5, 1.5), Vec3::new(0.5, -0.5, 1.5), Vec3::new(0.5, -0.5, 2.5), Vec3::new(-0.5, -0.5, 2.5)];
-    let cube = leak({
-        let mut g = GltfBuilder::new();
-        let m = g.material(&MaterialDesc::emitter("light", Vec3::ONE));
-        g.add_mesh("light", &MeshData::prism(footprint, 1.0), m, glam::Mat4::IDENTITY);
-        upload(&load(&g, "chi2-cone-cube"))
-    });
-    let quad = leak(light_scene(
-        "chi2-cone-quad",
-        &[(
-            Vec3::new(-0.5, -0.5, 1.0),
-            Vec3::new(0.5, -0.5, 1.0),
-            Vec3::new(0.5, 0.5, 1.0),
-            Vec3::new(-0.5, 0.5, 1.0),
-            -Vec3::Z,
-        )],
-    ));
+    let cube = leak(mesh_light("chi2-cone-cube", &MeshData::prism(footprint, 1.0)));
+    let quad = leak(unit_quad_light("chi2-cone-quad"));
     let case = |name: &str, scene: &'static GpuScene, point: Vec3, center: Vec3, radius: f64| {
         let to_center = (center - point).as_dvec3();
         DirectionCase {

@@ -159,6 +159,11 @@ fn floor_scene(name: &str, left: MaterialDesc, right: MaterialDesc, light: MeshD
 }
 use LightSelection::{Each, Power, Uniform};
 
+/// check_scene on a floor_scene: 24×24 in 6×6 regions against MIS 8 + 8 at 256 spp.
+fn check_floor_scene(path: &str, configs: &[Config]) {
+    check_scene(path, 24, 24, 6, config("reference", Strategy::Mis, 256, 8, 8, Each, Balance), configs);
+}
+
 /// A stress scene (`veach::assets::stress`) written as glTF; returns its path.
 fn stress_scene_file(name: &str) -> String {
     let path = output_dir("scenes").join(format!("stress-{name}.gltf"));
@@ -207,12 +212,8 @@ fn all_strategies_agree_on_glossy_surfaces() {
         },
         light,
     );
-    check_scene(
+    check_floor_scene(
         &path,
-        24,
-        24,
-        6,
-        config("reference", Strategy::Mis, 256, 8, 8, Each, Balance),
         &[
             config("uniform", Strategy::Uniform, 32, 0, 512, Each, Balance),
             config("brdf", Strategy::Brdf, 64, 0, 32, Each, Balance),
@@ -370,12 +371,8 @@ fn cone_light_sampling_agrees_with_area_sampling() {
         MaterialDesc::metal("rough gold", Vec3::new(0.9, 0.7, 0.3), 0.45),
         light,
     );
-    check_scene(
+    check_floor_scene(
         &path,
-        24,
-        24,
-        6,
-        config("reference", Strategy::Mis, 256, 8, 8, Each, Balance),
         &[
             config("light", Strategy::Light, 64, 8, 0, Each, Balance),
             config("light-cone", Strategy::Light, 64, 8, 0, Each, Balance).cone(),
