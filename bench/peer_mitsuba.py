@@ -18,7 +18,10 @@ channels of (x - r)^2 / (r^2 + 1e-2), efficiency = 1 / (relMSE x seconds).
 
 Light samples: by area on the chosen light's triangles, as Mitsuba samples its mesh emitters;
 `--veach-light-sampling cone` samples round lights (the Veach scene's spheres) by their bounding
-cones instead, a technique Mitsuba applies to its analytic `sphere` shapes but not to meshes.
+cones instead, a technique Mitsuba applies to its analytic `sphere` shapes but not to meshes;
+`--mitsuba-spheres` exports those lights as spheres of the same area (`veach export-mitsuba
+--round-lights-as-spheres`), so that both renderers sample them by cone (the geometry then
+differs by the tessellation: the "relMSE between references" column says by how much).
 
 Samplers: veach uses its default, Owen-scrambled Sobol points (--veach-sampler). Mitsuba is run
 with each sampler of --mitsuba-samplers (default: `independent`, its default, and `multijitter`,
@@ -105,6 +108,9 @@ def main():
     ap.add_argument("--veach-light-sampling", default="area", choices=["area", "solid-angle", "cone"],
                     help="how veach's timed renders sample a point or direction on the chosen light: area (the "
                          "same technique as Mitsuba's mesh emitters), or cone (spheres by their bounding cone)")
+    ap.add_argument("--mitsuba-spheres", action="store_true",
+                    help="export round lights (the Veach scene's spheres) as analytic Mitsuba spheres of the same "
+                         "area, which Mitsuba samples by their cones: pair with --veach-light-sampling cone")
     ap.add_argument("--mitsuba-samplers", default="independent,multijitter",
                     help="comma-separated Mitsuba sampler plugins, one table each")
     args = ap.parse_args()
@@ -124,8 +130,9 @@ def main():
     summary = []
     for scene in args.scenes:
         name = Path(scene).stem
-        xml_dir = out_dir / f"{name}-mitsuba"
-        run([args.veach, "export-mitsuba", scene, "-o", xml_dir])
+        spheres = "-spheres" if args.mitsuba_spheres else ""
+        xml_dir = out_dir / f"{name}-mitsuba{spheres}"
+        run([args.veach, "export-mitsuba", scene, "-o", xml_dir] + (["--round-lights-as-spheres"] if spheres else []))
         w, h = args.width, args.height
 
         # Named by its sampler: a reference cached by an older veach with independent samples has
@@ -148,7 +155,7 @@ def main():
             seconds = time.perf_counter() - t0
             return np.array(img, dtype=np.float64)[..., :3], seconds
 
-        m_ref_path = out_dir / f"{name}-mitsuba-reference-{args.mitsuba_reference_spp}spp-multijitter.npy"
+        m_ref_path = out_dir / f"{name}-mitsuba{spheres}-reference-{args.mitsuba_reference_spp}spp-multijitter.npy"
         if not m_ref_path.exists():
             img, _ = mitsuba_render(args.mitsuba_reference_spp, 7, "multijitter", timed=False)
             np.save(m_ref_path, img)
@@ -190,7 +197,7 @@ def main():
     # lavapipe's speed depends on the Mesa release (22.3 against 25: 1.4-3.3x), so say which ran.
     print(f"veach ({args.veach_sampler} sampler, lights by {args.veach_light_selection}, "
           f"{args.veach_light_sampling} light sampling) on {veach_render.driver}; "
-          f"Mitsuba {mi.__version__} ({mi.variant()})")
+          f"Mitsuba {mi.__version__} ({mi.variant()}){', round lights as analytic spheres' if args.mitsuba_spheres else ''}")
     for sampler in samplers:
         print(f"\nMitsuba with the `{sampler}` sampler:\n")
         print("| scene | spp | veach s | veach relMSE | veach eff. | Mitsuba s | Mitsuba relMSE | Mitsuba eff. "

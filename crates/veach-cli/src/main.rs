@@ -59,6 +59,10 @@ enum Command {
         /// Camera by name [default: the scene's first]
         #[arg(long)]
         camera: Option<String>,
+        /// Write each round light (a tessellated sphere) as an analytic Mitsuba sphere of the same
+        /// area, which Mitsuba samples by its cone as `--light-sampling cone` does
+        #[arg(long)]
+        round_lights_as_spheres: bool,
     },
 }
 
@@ -380,7 +384,9 @@ fn main() {
         Command::Scale(args) => scale(args),
         Command::Info { scene } => info(&scene),
         Command::Generate { name, output } => generate(&name, &output),
-        Command::ExportMitsuba { scene, output, camera } => export_mitsuba(&scene, &output, camera.as_deref()),
+        Command::ExportMitsuba { scene, output, camera, round_lights_as_spheres } => {
+            export_mitsuba(&scene, &output, camera.as_deref(), round_lights_as_spheres)
+        }
     };
     if let Err(e) = result {
         eprintln!("error: {e:#}");
@@ -919,10 +925,11 @@ fn info(path: &Path) -> Result<()> {
     Ok(())
 }
 
-fn export_mitsuba(path: &Path, output: &Path, camera: Option<&str>) -> Result<()> {
+fn export_mitsuba(path: &Path, output: &Path, camera: Option<&str>, round_lights_as_spheres: bool) -> Result<()> {
     let scene = veach::load_gltf(path)?;
     let camera = scene.camera(camera).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
-    veach::mitsuba::export(&scene, &camera, output).with_context(|| format!("{}", path.display()))?;
+    veach::mitsuba::export(&scene, &camera, output, round_lights_as_spheres)
+        .with_context(|| format!("{}", path.display()))?;
     eprintln!("wrote {}", output.join("scene.xml").display());
     Ok(())
 }

@@ -11,6 +11,10 @@
 //!   the image.
 //! - emissive triangles ↔ an `area` emitter on their mesh (one-sided, front = counter-clockwise
 //!   winding, as in glTF); point, spot and directional lights ↔ `point`, `spot`, `directional`.
+//! - with `round_lights_as_spheres`, each round light (a tessellated sphere: `LightSampling::Cone`
+//!   samples it by its bounding cone) ↔ an analytic `sphere` of the same surface area around the
+//!   same centre, which Mitsuba samples by its cone too (its `Sphere::sample_direction`): the
+//!   same technique on both sides, on geometry that differs by the tessellation.
 //!
 //! Anything else (a dielectric specular layer, a mix of metal and dielectric, textures,
 //! double-sided emitters) is refused with a message, so that the two renderers never render
@@ -25,7 +29,7 @@ use std::path::Path;
 /// Writes `dir/scene.xml` and `dir/mesh-K.ply`; the XML takes `spp`, `width`, `height`,
 /// `emitter_samples`, `bsdf_samples` and `sampler` (a Mitsuba sampler plugin: `independent`,
 /// `multijitter`, ...) as parameters ($name, Mitsuba's `mi.load_file(..., name=value)`).
-pub fn export(scene: &Scene, camera: &Camera, dir: &Path) -> Result<()> {
+pub fn export(scene: &Scene, camera: &Camera, dir: &Path, round_lights_as_spheres: bool) -> Result<()> {
     let io = |e: std::io::Error| Error::Options(format!("{}: {e}", dir.display()));
     std::fs::create_dir_all(dir).map_err(io)?;
     let mut xml = String::new();
@@ -58,37 +62,48 @@ pub fn export(scene: &Scene, camera: &Camera, dir: &Path) -> Result<()> {
         triple(target),
         triple(camera.up)
     );
+    // Round lights written as spheres, and their triangles left out of the meshes.
+    let mut in_sphere = vec![false; scene.triangles.len()];
+    for light in &scene.lights {
+        let LightKind::Area { triangles, radiance, double_sided } = &light.kind else { continue };
+        let Some((centre, radius)) =
+            round_lights_as_spheres.then(|| crate::gpu::scene_buffers::round_light_sphere(scene, triangles)).flatten()
+        else {
+            continue;
+        };
+        if *double_sided {
+            return Err(Error::Options(format!(
+                "light '{}' is double-sided; Mitsuba's area lights are one-sided",
+                light.name
+            )));
+        }
+        let material = &scene.materials[scene.triangles[triangles[0] as usize].material as usize];
+        let _ = writeln!(
+            xml,
+            "    <!-- {} as a sphere -->\n    <shape type=\"sphere\">\n        <point name=\"center\" value=\"{}\"/>\n        \
+             <float name=\"radius\" value=\"{radius:e}\"/>\n        {}\n        <emitter type=\"area\">\n            \
+             <rgb name=\"radiance\" value=\"{}\"/>\n        </emitter>\n    </shape>",
+            light.name.replace("--", "- -"),
+            triple(centre),
+            bsdf_xml(material)?,
+            triple(*radiance)
+        );
+        for &t in triangles {
+            in_sphere[t as usize] = true;
+        }
+    }
     for (m, material) in scene.materials.iter().enumerate() {
-        let tris: Vec<_> = scene.triangles.iter().filter(|t| t.material as usize == m).collect();
+        let tris: Vec<_> = scene
+            .triangles
+            .iter()
+            .zip(&in_sphere)
+            .filter(|(t, s)| t.material as usize == m && !**s)
+            .map(|(t, _)| t)
+            .collect();
         if tris.is_empty() {
             continue;
         }
-        if material.texture_refs().next().is_some() {
-            return Err(Error::Options(format!(
-                "material '{}' has textures, which the export leaves out",
-                material.name
-            )));
-        }
-        let bsdf = if material.metallic == 0.0 && material.specular == 0.0 {
-            format!(
-                "<bsdf type=\"diffuse\">\n            <rgb name=\"reflectance\" value=\"{}\"/>\n        </bsdf>",
-                triple(material.base_color)
-            )
-        } else if material.metallic == 1.0 {
-            let alpha = (material.roughness * material.roughness).max(1e-4);
-            format!(
-                "<bsdf type=\"roughconductor\">\n            <string name=\"distribution\" value=\"ggx\"/>\n            \
-                 <float name=\"alpha\" value=\"{alpha}\"/>\n            <string name=\"material\" value=\"none\"/>\n            \
-                 <rgb name=\"specular_reflectance\" value=\"{}\"/>\n        </bsdf>",
-                triple(material.base_color)
-            )
-        } else {
-            return Err(Error::Options(format!(
-                "material '{}' (metallic {}, specular {}) has no Mitsuba equivalent in this export: only \
-                 Lambertian (metallic 0, specular 0) and metal (metallic 1) map one to one",
-                material.name, material.metallic, material.specular
-            )));
-        };
+        let bsdf = bsdf_xml(material)?;
         let emitter = if material.is_emissive() {
             if material.double_sided {
                 return Err(Error::Options(format!(
@@ -138,6 +153,33 @@ pub fn export(scene: &Scene, camera: &Camera, dir: &Path) -> Result<()> {
     std::fs::write(dir.join("scene.xml"), xml).map_err(io)
 }
 
+/// The material's Mitsuba BSDF (see the module's table), or why it has none.
+fn bsdf_xml(material: &crate::scene::Material) -> Result<String> {
+    if material.texture_refs().next().is_some() {
+        return Err(Error::Options(format!("material '{}' has textures, which the export leaves out", material.name)));
+    }
+    if material.metallic == 0.0 && material.specular == 0.0 {
+        return Ok(format!(
+            "<bsdf type=\"diffuse\">\n            <rgb name=\"reflectance\" value=\"{}\"/>\n        </bsdf>",
+            triple(material.base_color)
+        ));
+    }
+    if material.metallic == 1.0 {
+        let alpha = (material.roughness * material.roughness).max(1e-4);
+        return Ok(format!(
+            "<bsdf type=\"roughconductor\">\n            <string name=\"distribution\" value=\"ggx\"/>\n            \
+             <float name=\"alpha\" value=\"{alpha}\"/>\n            <string name=\"material\" value=\"none\"/>\n            \
+             <rgb name=\"specular_reflectance\" value=\"{}\"/>\n        </bsdf>",
+            triple(material.base_color)
+        ));
+    }
+    Err(Error::Options(format!(
+        "material '{}' (metallic {}, specular {}) has no Mitsuba equivalent in this export: only \
+         Lambertian (metallic 0, specular 0) and metal (metallic 1) map one to one",
+        material.name, material.metallic, material.specular
+    )))
+}
+
 fn triple(v: Vec3) -> String {
     format!("{:e}, {:e}, {:e}", v.x, v.y, v.z)
 }
@@ -168,4 +210,46 @@ fn write_ply(path: &Path, tris: &[&crate::scene::Triangle]) -> std::io::Result<(
         }
     }
     std::fs::write(path, out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn export_veach_scene(spheres: bool) -> (String, usize) {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/veach-mis.gltf");
+        let scene = crate::load_gltf(&path).unwrap();
+        let dir = std::env::temp_dir().join(format!("veach-mitsuba-export-{}-{spheres}", std::process::id()));
+        export(&scene, &scene.camera(None).unwrap(), &dir, spheres).unwrap();
+        let xml = std::fs::read_to_string(dir.join("scene.xml")).unwrap();
+        let meshes = std::fs::read_dir(&dir)
+            .unwrap()
+            .filter(|e| e.as_ref().unwrap().path().extension().unwrap() == "ply")
+            .count();
+        std::fs::remove_dir_all(&dir).unwrap();
+        (xml, meshes)
+    }
+
+    #[test]
+    fn round_lights_become_spheres_of_the_same_area_only_when_asked() {
+        let (meshes_only, mesh_files) = export_veach_scene(false);
+        assert_eq!(meshes_only.matches("type=\"sphere\"").count(), 0);
+        let (with_spheres, sphere_mesh_files) = export_veach_scene(true);
+        assert_eq!(with_spheres.matches("type=\"sphere\"").count(), 4, "the Veach scene's four lights");
+        // Every emitter left the meshes: one emitter per sphere, none on a PLY shape.
+        assert_eq!(with_spheres.matches("type=\"area\"").count(), 4);
+        assert_eq!(mesh_files - sphere_mesh_files, 4, "the four lights' meshes are not written");
+        // A UV sphere's area is a little under its bounding sphere's; the radius follows it.
+        let scene =
+            crate::load_gltf(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/veach-mis.gltf")).unwrap();
+        for light in &scene.lights {
+            let LightKind::Area { triangles, .. } = &light.kind else { panic!("area lights only") };
+            let (_, r) = crate::gpu::scene_buffers::round_light_sphere(&scene, triangles).unwrap();
+            let corners = triangles.iter().flat_map(|&t| scene.triangles[t as usize].p);
+            let (lo, hi) = corners.fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p), hi.max(p)));
+            let bound = 0.5 * (hi - lo).max_element();
+            assert!(r < bound && r > 0.98 * bound, "{}: radius {r} against the mesh's {bound}", light.name);
+            assert!(with_spheres.contains(&format!("value=\"{r:e}\"")));
+        }
+    }
 }

@@ -127,6 +127,19 @@ fn triangle_corners(scene: &Scene, triangles: &[u32]) -> Vec<[Vec3; 3]> {
     triangles.iter().map(|&t| scene.triangles[t as usize].p).collect()
 }
 
+/// The sphere a round area light approximates, for `mitsuba::export`'s analytic spheres: the
+/// bounding sphere's centre and the radius of equal surface area, sqrt(A / 4π) (so that the sphere
+/// emits the power the triangles do); None where the light is not round.
+pub fn round_light_sphere(scene: &Scene, triangles: &[u32]) -> Option<(Vec3, f32)> {
+    if !is_round_light(scene, triangles) {
+        return None;
+    }
+    let corners = triangle_corners(scene, triangles);
+    let (centre, _) = bounding_sphere(corners.iter().flatten().copied());
+    let area: f64 = triangles.iter().map(|&t| scene.triangles[t as usize].area() as f64).sum();
+    Some((centre, (area / (4.0 * std::f64::consts::PI)).sqrt() as f32))
+}
+
 /// Is the area light of these scene triangles convex and round (`light_subtrees::is_round`, with
 /// the bounding sphere its GPU record gets)?
 pub fn is_round_light(scene: &Scene, triangles: &[u32]) -> bool {
