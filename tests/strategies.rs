@@ -136,10 +136,14 @@ use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
 /// A 4×4 floor, `left` material for x < 0 and `right` for x > 0, lit by the emitter `light`
 /// (radiance (6, 6, 5)), seen from above and in front; written as glTF, returns its path.
 fn floor_scene(name: &str, left: MaterialDesc, right: MaterialDesc, light: MeshData) -> String {
+    floor_scene_lit_by(name, left, right, &[(light, Vec3::new(6.0, 6.0, 5.0))])
+}
+
+/// The same floor under several lights, each (mesh, radiance) a light of its own.
+fn floor_scene_lit_by(name: &str, left: MaterialDesc, right: MaterialDesc, lights: &[(MeshData, Vec3)]) -> String {
     let mut g = GltfBuilder::new();
     let left = g.material(&left);
     let right = g.material(&right);
-    let emitter = g.material(&MaterialDesc::emitter("light", Vec3::new(6.0, 6.0, 5.0)));
     let quad = |x0: f32, x1: f32| {
         MeshData::quad(
             Vec3::new(x0, 0., -2.),
@@ -151,7 +155,10 @@ fn floor_scene(name: &str, left: MaterialDesc, right: MaterialDesc, light: MeshD
     };
     g.add_mesh("left floor", &quad(-2.0, 0.0), left, Mat4::IDENTITY);
     g.add_mesh("right floor", &quad(0.0, 2.0), right, Mat4::IDENTITY);
-    g.add_mesh("light", &light, emitter, Mat4::IDENTITY);
+    for (k, (mesh, radiance)) in lights.iter().enumerate() {
+        let emitter = g.material(&MaterialDesc::emitter(&format!("light {k}"), *radiance));
+        g.add_mesh(&format!("light {k}"), mesh, emitter, Mat4::IDENTITY);
+    }
     g.camera("camera", Vec3::new(0.0, 1.0, 2.6), Vec3::new(0.0, 0.0, -0.6), 50.0);
     let path = output_dir("scenes").join(format!("{name}.gltf"));
     g.write(&path).unwrap();
@@ -358,29 +365,40 @@ fn all_strategies_agree_on_the_textured_scene() {
 /// sphere, or find another surface first, must count nothing, and a BRDF sample that finds a
 /// sphere must be weighed with the cone's density: each mistake shifts the image by more than
 /// these bounds. Light sampling alone is checked on a floor (diffuse and rough metal) under two
-/// spheres, one of them low enough that floor points see it in a wide cone; on the Veach scene,
+/// spheres, one of them low enough that floor points see it in a wide cone, and under a cube
+/// standing on the floor (round too, A / 4πr² = 0.64: the floor around its base lies inside its
+/// bounding sphere, where every direction is sampled, and area sampling's r² → 0 at the contact
+/// edge) beside a tiny bright sphere (radius 0.01, radiance 3,000); on the Veach scene,
 /// where light sampling alone has no usable confidence interval on the sharp plates (above; with
 /// cones too: at 64 spp one region's mean came out 0.04-0.24 around a true 0.20), every MIS variant.
 #[test]
 fn cone_light_sampling_agrees_with_area_sampling() {
-    let mut light = MeshData::sphere(Vec3::new(-0.6, 0.45, -0.7), 0.3, 24, 12);
-    light.append(&MeshData::sphere(Vec3::new(0.9, 1.3, -1.2), 0.15, 16, 8));
-    let path = floor_scene(
-        "spheres",
-        MaterialDesc::lambert("white", Vec3::splat(0.7)),
-        MaterialDesc::metal("rough gold", Vec3::new(0.9, 0.7, 0.3), 0.45),
-        light,
+    let radiance = Vec3::new(6.0, 6.0, 5.0);
+    let white = || MaterialDesc::lambert("white", Vec3::splat(0.7));
+    let gold = || MaterialDesc::metal("rough gold", Vec3::new(0.9, 0.7, 0.3), 0.45);
+    let spheres = [
+        (MeshData::sphere(Vec3::new(-0.6, 0.45, -0.7), 0.3, 24, 12), radiance),
+        (MeshData::sphere(Vec3::new(0.9, 1.3, -1.2), 0.15, 16, 8), radiance),
+    ];
+    let cube = MeshData::prism(
+        [Vec3::new(-0.5, 0.0, -1.0), Vec3::new(0.1, 0.0, -1.0), Vec3::new(0.1, 0.0, -0.4), Vec3::new(-0.5, 0.0, -0.4)],
+        0.6,
     );
-    check_floor_scene(
-        &path,
-        &[
-            config("light", Strategy::Light, 64, 8, 0, Each, Balance),
-            config("light-cone", Strategy::Light, 64, 8, 0, Each, Balance).cone(),
-            config("light-cone-power-selection", Strategy::Light, 64, 8, 0, Power, Balance).cone(),
-            config("mis-cone", Strategy::Mis, 64, 4, 4, LightSelection::Bsdf, PowerHeuristic).cone(),
-            config("mis-lobes-cone", Strategy::MisLobes, 64, 4, 4, Power, Balance).cone(),
-        ],
-    );
+    let cube_and_tiny =
+        [(cube, radiance), (MeshData::sphere(Vec3::new(0.8, 0.4, -0.6), 0.01, 12, 6), Vec3::splat(3000.0))];
+    let configs = [
+        config("light", Strategy::Light, 64, 8, 0, Each, Balance),
+        config("light-cone", Strategy::Light, 64, 8, 0, Each, Balance).cone(),
+        config("light-cone-power-selection", Strategy::Light, 64, 8, 0, Power, Balance).cone(),
+        config("mis-cone", Strategy::Mis, 64, 4, 4, LightSelection::Bsdf, PowerHeuristic).cone(),
+        config("mis-lobes-cone", Strategy::MisLobes, 64, 4, 4, Power, Balance).cone(),
+    ];
+    for (name, lights) in [("spheres", &spheres), ("cube-and-tiny-sphere", &cube_and_tiny)] {
+        let path = floor_scene_lit_by(name, white(), gold(), lights);
+        let scene = veach::load_gltf(std::path::Path::new(&path)).unwrap();
+        assert!(veach::features::SceneFeatures::detect(&scene).all_lights_round, "{name}: every light is round");
+        check_floor_scene(&path, &configs);
+    }
     check_scene(
         "veach-mis",
         36,
