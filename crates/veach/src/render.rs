@@ -61,9 +61,9 @@ pub enum LightSampling {
     /// subtend less than 3e-4 sr keep area sampling.
     SolidAngle,
     /// Round lights (convex, filling at least half of their bounding sphere's surface: a
-    /// tessellated sphere) seen from outside that sphere: a direction uniform in the cone it
-    /// subtends (pbrt-v4's `Sphere::Sample`), p_ω = P(light) / Ω, traced to its closest hit. Every
-    /// other light by area.
+    /// tessellated sphere, a cube): a direction uniform in the cone that sphere subtends
+    /// (pbrt-v4's `Sphere::Sample`; every direction from inside it), p_ω = P(light) / Ω, traced
+    /// to its closest hit. Every other light by area.
     Cone,
 }
 
