@@ -23,7 +23,7 @@ pub struct SceneFeatures {
     /// Some used material is a perfect mirror (roughness 0).
     pub any_mirror: bool,
     pub double_sided_emitters: bool,
-    /// Some area light is round (`gpu::scene_buffers::is_round_light`), which
+    /// Some area light is round (`gpu::scene_buffers::area_light_shape`), which
     /// `LightSampling::Cone` samples by its bounding cone.
     pub round_lights: bool,
     /// Every light is a round area light (and there is one).
@@ -48,7 +48,9 @@ impl SceneFeatures {
             .lights
             .iter()
             .map(|l| match &l.kind {
-                LightKind::Area { triangles, .. } => crate::gpu::scene_buffers::is_round_light(scene, triangles),
+                LightKind::Area { triangles, .. } => {
+                    crate::gpu::scene_buffers::area_light_shape(scene, triangles).round
+                }
                 _ => false,
             })
             .collect();

@@ -127,25 +127,33 @@ fn triangle_corners(scene: &Scene, triangles: &[u32]) -> Vec<[Vec3; 3]> {
     triangles.iter().map(|&t| scene.triangles[t as usize].p).collect()
 }
 
+/// What the kernels need to know of an area light's shape: convex (`light_subtrees::is_convex`:
+/// its shadow rays skip its subtrees) and round (convex and `light_subtrees::is_round` with the
+/// bounding sphere its GPU record gets: `LightSampling::Cone` samples it by that sphere's cone).
+/// The one place both are decided, for the light records and for `SceneFeatures`.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct AreaLightShape {
+    pub convex: bool,
+    pub round: bool,
+}
+
+pub fn area_light_shape(scene: &Scene, triangles: &[u32]) -> AreaLightShape {
+    let corners = triangle_corners(scene, triangles);
+    let (_, radius) = bounding_sphere(corners.iter().flatten().copied());
+    let convex = is_convex(&corners);
+    AreaLightShape { convex, round: convex && is_round(&corners, radius) }
+}
+
 /// The sphere a round area light approximates, for `mitsuba::export`'s analytic spheres: the
 /// bounding sphere's centre and the radius of equal surface area, sqrt(A / 4π) (so that the sphere
 /// emits the power the triangles do); None where the light is not round.
 pub fn round_light_sphere(scene: &Scene, triangles: &[u32]) -> Option<(Vec3, f32)> {
-    if !is_round_light(scene, triangles) {
+    if !area_light_shape(scene, triangles).round {
         return None;
     }
-    let corners = triangle_corners(scene, triangles);
-    let (centre, _) = bounding_sphere(corners.iter().flatten().copied());
+    let (centre, _) = bounding_sphere(triangle_corners(scene, triangles).into_iter().flatten());
     let area: f64 = triangles.iter().map(|&t| scene.triangles[t as usize].area() as f64).sum();
     Some((centre, (area / (4.0 * std::f64::consts::PI)).sqrt() as f32))
-}
-
-/// Is the area light of these scene triangles convex and round (`light_subtrees::is_round`, with
-/// the bounding sphere its GPU record gets)?
-pub fn is_round_light(scene: &Scene, triangles: &[u32]) -> bool {
-    let corners = triangle_corners(scene, triangles);
-    let (_, radius) = bounding_sphere(corners.iter().flatten().copied());
-    is_convex(&corners) && is_round(&corners, radius)
 }
 
 pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) -> SceneArrays {
@@ -206,23 +214,21 @@ pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) ->
         lights.push(g);
     }
 
-    // Shadow rays towards a point of a convex light skip the subtrees it alone fills.
-    let convex: Vec<bool> = scene
+    // Shadow rays towards a point of a convex light skip the subtrees it alone fills; round lights
+    // may be sampled by their cones.
+    let shapes: Vec<AreaLightShape> = scene
         .lights
         .iter()
         .map(|light| match &light.kind {
-            LightKind::Area { triangles, .. } => {
-                is_convex(&triangles.iter().map(|&t| scene.triangles[t as usize].p).collect::<Vec<_>>())
-            }
-            _ => false,
+            LightKind::Area { triangles, .. } => area_light_shape(scene, triangles),
+            _ => AreaLightShape::default(),
         })
         .collect();
-    for ((g, &c), light) in lights.iter_mut().zip(&convex).zip(&scene.lights) {
-        g.convex = c as u32;
-        if let LightKind::Area { triangles, .. } = &light.kind {
-            g.round = (c && is_round(&triangle_corners(scene, triangles), g.bound_radius)) as u32;
-        }
+    for (g, shape) in lights.iter_mut().zip(&shapes) {
+        g.convex = shape.convex as u32;
+        g.round = shape.round as u32;
     }
+    let convex: Vec<bool> = shapes.iter().map(|s| s.convex).collect();
 
     // Lights by power; all dark (or no power at all): uniformly.
     let powers: Vec<f64> =
