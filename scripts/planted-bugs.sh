@@ -65,7 +65,7 @@ bugs=(
   "crates/veach/src/gpu/baked_triangles.rs|\"hi\", &wgsl_vec3(hi));|\"hi\", &wgsl_vec3(lo));|specialise|triangles_compiled|baked triangles behind boxes: the box collapsed to its lower corner"
   "crates/veach/src/render.rs|baked.mark_blockers(&arrays.triangle_lights, (!directional).then_some(&delta[..]));|let _ = (directional, &delta); baked.mark_blockers(&arrays.triangle_lights, Some(&[]));|specialise|wall_at_the_edge|baked shadow rays: a wall left out though a point light lies beyond it"
   "shaders/lights.wgsl|let one_minus_cos = u.x * cone.one_minus_cos_max;|let one_minus_cos = sqrt(u.x) * cone.one_minus_cos_max;|sampling|cone_light|cone samples not uniform in solid angle"
-  "shaders/lights.wgsl|return BoundingCone(vec3f(0.0, 0.0, 1.0), 1.0, 2.0);|return BoundingCone(vec3f(0.0, 0.0, -1.0), 1.0, 1.0);|sampling|cone_light|inside the bounding sphere: a hemisphere, not every direction"
+  "shaders/lights.wgsl|return BoundingCone(vec3f(0.0, 0.0, 1.0), 2.0);|return BoundingCone(vec3f(0.0, 0.0, -1.0), 1.0);|sampling|cone_light|inside the bounding sphere: a hemisphere, not every direction"
   "shaders/lights.wgsl|    if cone_sampled(light) {\n        // Every point|    if false \u0026\u0026 cone_sampled(light) {\n        // Every point|strategies|cone_light|BRDF samples finding a round light weighed with its area pdf"
   "shaders/wavefront.wgsl|SamplePlan(q.plan \u0026 0xffffu, q.light_weighting, q.plan >> 16u)|SamplePlan(q.plan \u0026 0xffffu, LIGHT_ALONE, q.plan >> 16u)|strategies|cone_light|the direction kernel's cone samples weighed as light sampling alone"
 )

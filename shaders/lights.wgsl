@@ -290,11 +290,10 @@ fn cone_sampled(light: Light) -> bool {
     return !SHADOW_RAY_LIGHTS || (light.kind == LIGHT_AREA && light.round != 0u);
 }
 
-// The cone from x around the bounding sphere of `light`: its axis, sin²θ_max and 1 − cos θ_max,
-// the latter as sin²θ_max / (1 + cos θ_max), which does not cancel for small, distant spheres.
+// The cone from x around the bounding sphere of `light`: its axis and 1 − cos θ_max, written as
+// sin²θ_max / (1 + cos θ_max), which does not cancel for small, distant spheres.
 struct BoundingCone {
     axis: vec3f,
-    sin2_max: f32,
     one_minus_cos_max: f32,
 }
 
@@ -304,11 +303,11 @@ fn bounding_cone(light: Light, x: vec3f) -> BoundingCone {
     let r_sq = light.bound_radius * light.bound_radius;
     if !(dist_sq > r_sq) {
         // Inside the sphere: the whole sphere of directions, 1 − cos θ_max = 2.
-        return BoundingCone(vec3f(0.0, 0.0, 1.0), 1.0, 2.0);
+        return BoundingCone(vec3f(0.0, 0.0, 1.0), 2.0);
     }
     let sin2_max = r_sq / dist_sq;
     let cos_max = sqrt(1.0 - sin2_max);
-    return BoundingCone(d * inverseSqrt(dist_sq), sin2_max, sin2_max / (1.0 + cos_max));
+    return BoundingCone(d * inverseSqrt(dist_sq), sin2_max / (1.0 + cos_max));
 }
 
 // Directions uniform in the cone: pdf 1 / (2π (1 − cos θ_max)) (the cone's solid angle).
