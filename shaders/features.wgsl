@@ -28,6 +28,12 @@ override CONE_SAMPLING: bool = true;
 // Some light sample may be a point on a light with a shadow ray; false where CONE_SAMPLING takes
 // every light (each is round), so the kernel has no shadow-ray traversal at all.
 override SHADOW_RAY_LIGHTS: bool = true;
+// Some area light is a parallelogram (Light.parallelogram), and light samples are not taken by
+// solid angle: its area samples map the unit square onto it linearly.
+override PARALLELOGRAM_LIGHTS: bool = true;
+// Some area light sample picks a triangle by area (lights.wgsl, select_emitter_triangle); false
+// where PARALLELOGRAM_LIGHTS takes every area light.
+override TRIANGLE_PICKS: bool = true;
 
 const STRATEGY_FROM_FRAME: u32 = 255u;
 

@@ -203,7 +203,9 @@ struct Light {
     // 1 where the area light is convex and fills at least half of its bounding sphere's surface
     // (light_subtrees.rs, is_round): LIGHT_SAMPLING_CONE samples it by the cone the sphere subtends.
     round: u32,
-    _pad2: u32,
+    // 1 + the corner of the light's first emitter triangle opposite the edge it shares with the
+    // second where the two make a parallelogram (light_subtrees.rs, parallelogram_corner), else 0.
+    parallelogram: u32,
 }
 
 // A triangle of an area light, and one bucket of the light's alias table over its triangles by

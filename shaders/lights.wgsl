@@ -229,13 +229,50 @@ fn spherical_sampling_solid_angle(x: vec3f, p0: vec3f, p1: vec3f, p2: vec3f) -> 
     return select(0.0, omega, omega >= MIN_SPHERICAL_SAMPLE_AREA && omega <= MAX_SPHERICAL_SAMPLE_AREA);
 }
 
+// With PARALLELOGRAM_LIGHTS, a light of two triangles that make one parallelogram
+// (Light.parallelogram) is sampled by area through the linear map of the unit square onto it,
+// y = o + u.x a + u.y b. The density is the same, 1 / A, as a triangle chosen by area and a point
+// on it by Turk's square-root map, but the sampler's strata stay parallelograms of equal area,
+// where the triangle choice cuts the square in two and the square-root map stretches each half
+// towards a corner: the Sobol points stratify the light better (docs/performance.md,
+// "Parallelogram lights").
+fn parallelogram_sampled(light: Light) -> bool {
+    if !PARALLELOGRAM_LIGHTS {
+        return false;
+    }
+    return !TRIANGLE_PICKS || (light.parallelogram != 0u && frame.light_sampling != LIGHT_SAMPLING_SOLID_ANGLE);
+}
+
+// The point u of the unit square on the parallelogram spanned from corner k = parallelogram - 1 of
+// the light's first triangle by its edges to the two other corners; u.x + u.y <= 1 is that triangle.
+fn parallelogram_point(light: Light, u: vec2f) -> vec3f {
+    let t = emitter_tris[light.first_tri];
+    let k = light.parallelogram - 1u;
+    let c1 = t.p0 + t.e1;
+    let c2 = t.p0 + t.e2;
+    let o = select(select(c2, c1, k == 1u), t.p0, k == 0u);
+    // Corners k + 1 and k + 2 (mod 3).
+    let s0 = select(select(t.p0, c2, k == 1u), c1, k == 0u);
+    let s1 = select(select(c1, t.p0, k == 1u), c2, k == 0u);
+    return o + u.x * (s0 - o) + u.y * (s1 - o);
+}
+
+// Barycentrics (b1, b2) of point y in the plane of emitter triangle `tri` (normal n = e1 × e2).
+fn triangle_barycentrics(tri: EmitterTriangle, n: vec3f, y: vec3f) -> vec2f {
+    let d = y - tri.p0;
+    let b = vec2f(dot(cross(d, tri.e2), n), dot(cross(tri.e1, d), n)) / dot(n, n);
+    return clamp(b, vec2f(0.0), vec2f(1.0));
+}
+
 // Area light: an emitter triangle chosen by area, then a point uniform on it (pdf 1/A in area,
 // converted to solid angle), or, with LIGHT_SAMPLING_SOLID_ANGLE, a direction uniform in the
 // triangle's solid angle (pdf P(triangle) / Ω, Arvo 1995), which stays bounded where r² → 0
 // at a contact edge and where cos θ_l → 0 at grazing angles.
 fn sample_area_light(index: u32, light: Light, x: vec3f, u_light: vec2f) -> LightSample {
+    let parallelogram = parallelogram_sampled(light);
     let pick = select_emitter_triangle(light, u_light.x);
-    let ti = pick.index;
+    // The parallelogram's second triangle is where u.x + u.y > 1 (parallelogram_point).
+    let ti = select(pick.index, light.first_tri + select(0u, 1u, u_light.x + u_light.y > 1.0), parallelogram);
     let u = vec2f(pick.u, u_light.y);
     let tri = emitter_tris[ti];
     let p1 = tri.p0 + tri.e1;
@@ -244,6 +281,10 @@ fn sample_area_light(index: u32, light: Light, x: vec3f, u_light: vec2f) -> Ligh
     let n_l = normalize(n);
     var b = sample_uniform_triangle(u);
     var y = tri.p0 + b.x * tri.e1 + b.y * tri.e2;
+    if parallelogram {
+        y = parallelogram_point(light, u_light);
+        b = triangle_barycentrics(tri, n, y);
+    }
     let omega = spherical_sampling_solid_angle(x, tri.p0, p1, p2);
     var failed = false;
     if omega > 0.0 {
@@ -252,9 +293,7 @@ fn sample_area_light(index: u32, light: Light, x: vec3f, u_light: vec2f) -> Ligh
         let t = dot(tri.p0 - x, n) / dot(w, n);
         failed = all(w == vec3f(0.0)) || !(t > 0.0);
         y = x + t * w;
-        let d = y - tri.p0;
-        let n_sq = dot(n, n);
-        b = clamp(vec2f(dot(cross(d, tri.e2), n), dot(cross(tri.e1, d), n)) / n_sq, vec2f(0.0), vec2f(1.0));
+        b = triangle_barycentrics(tri, n, y);
     }
     let d = y - x;
     let dist_sq = dot(d, d);

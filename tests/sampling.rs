@@ -484,6 +484,19 @@ fn area_light_sampling_matches_the_solid_angle_pdf() {
             ),
         ],
     ));
+    // A sheared parallelogram of two triangles, its first triangle's corners in each rotation, so
+    // that the one opposite the shared edge is once each corner (Light.parallelogram = 1, 2, 3):
+    // area samples map the unit square onto it linearly, and must cover it uniformly.
+    let (a, b, c) = (Vec3::new(-0.6, -0.3, 1.0), Vec3::new(0.4, -0.3, 1.0), Vec3::new(0.7, 0.4, 1.0));
+    let d = a + c - b;
+    let sheared = |name: &str, first: [Vec3; 3]| {
+        let mesh =
+            MeshData { positions: [first, [a, d, c]].concat(), normals: None, uvs: None, indices: (0..6).collect() };
+        leak(mesh_light(name, &mesh))
+    };
+    let corner_first = sheared("chi2-parallelogram-0", [b, a, c]);
+    let corner_second = sheared("chi2-parallelogram-1", [c, b, a]);
+    let corner_third = sheared("chi2-parallelogram-2", [a, c, b]);
     let case = |name: &str, scene: &'static GpuScene, point: Vec3, center: Vec3, radius: f64, sampling: u32| {
         let to_center = (center - point).as_dvec3();
         let mode = if sampling == layout::LIGHT_SAMPLING_SOLID_ANGLE { "solid angle" } else { "area" };
@@ -514,6 +527,14 @@ fn area_light_sampling_matches_the_solid_angle_pdf() {
             case("two unequal quads", two, Vec3::new(0.0, 0.0, 0.0), Vec3::new(-0.2, 0.0, 0.9), 0.8, sampling),
         ]);
     }
+    // The parallelogram's map is area sampling's (solid-angle sampling keeps its triangles).
+    let centre = 0.5 * (a + c);
+    let area = layout::LIGHT_SAMPLING_AREA;
+    cases.extend([
+        case("parallelogram from corner 0, near", corner_first, Vec3::new(0.1, 0.0, 0.6), centre, 0.9, area),
+        case("parallelogram from corner 1, off-centre", corner_second, Vec3::new(2.0, -1.2, -0.2), centre, 0.9, area),
+        case("parallelogram from corner 2, far", corner_third, Vec3::new(-0.3, 0.2, -6.0), centre, 0.9, area),
+    ]);
     run_all(&cases);
 }
 

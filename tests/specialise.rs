@@ -225,7 +225,7 @@ fn kernels_are_cached_per_feature_set_and_strategy() {
         let out = render(&gpu_scene, &settings(strategy), &camera);
         assert_eq!(out.kernel_creation, Duration::ZERO, "{strategy:?} was compiled again");
     }
-    assert_eq!(gpu_scene.features.describe(), "area lights, one light, all diffuse");
+    assert_eq!(gpu_scene.features.describe(), "area lights, parallelogram lights, one light, all diffuse");
 }
 
 /// Shadow rays of a kernel with baked triangles leave out the triangles that no shadow ray can

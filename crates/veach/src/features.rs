@@ -28,6 +28,11 @@ pub struct SceneFeatures {
     pub round_lights: bool,
     /// Every light is a round area light (and there is one).
     pub all_lights_round: bool,
+    /// Some area light is one parallelogram of two triangles, which area samples map the unit
+    /// square onto linearly.
+    pub parallelogram_lights: bool,
+    /// Every area light is a parallelogram (true where there are none).
+    pub all_area_lights_parallelograms: bool,
     /// Textures in use, by kind.
     pub base_color_texture: bool,
     pub metallic_roughness_texture: bool,
@@ -44,16 +49,17 @@ impl SceneFeatures {
         let materials = || scene.materials.iter().zip(&used).filter(|(_, u)| **u).map(|(m, _)| m);
         let glossy = |m: &&crate::scene::Material| m.metallic > 0.0 || m.specular > 0.0;
         let has = |f: fn(&LightKind) -> bool| scene.lights.iter().any(|l| f(&l.kind));
-        let round: Vec<bool> = scene
+        let shapes: Vec<Option<crate::gpu::scene_buffers::AreaLightShape>> = scene
             .lights
             .iter()
             .map(|l| match &l.kind {
                 LightKind::Area { triangles, .. } => {
-                    crate::gpu::scene_buffers::area_light_shape(scene, triangles).round
+                    Some(crate::gpu::scene_buffers::area_light_shape(scene, triangles))
                 }
-                _ => false,
+                _ => None,
             })
             .collect();
+        let round: Vec<bool> = shapes.iter().map(|s| s.is_some_and(|s| s.round)).collect();
         SceneFeatures {
             area_lights: has(|k| matches!(k, LightKind::Area { .. })),
             point_lights: has(|k| matches!(k, LightKind::Point { .. })),
@@ -67,6 +73,8 @@ impl SceneFeatures {
             double_sided_emitters: has(|k| matches!(k, LightKind::Area { double_sided: true, .. })),
             round_lights: round.iter().any(|&r| r),
             all_lights_round: !round.is_empty() && round.iter().all(|&r| r),
+            parallelogram_lights: shapes.iter().any(|s| s.is_some_and(|s| s.parallelogram.is_some())),
+            all_area_lights_parallelograms: shapes.iter().flatten().all(|s| s.parallelogram.is_some()),
             base_color_texture: materials().any(|m| m.base_color_texture.is_some()),
             metallic_roughness_texture: materials().any(|m| m.metallic_roughness_texture.is_some()),
             // An emissive texture matters only where the emissive factor is not zero.
@@ -93,6 +101,7 @@ impl SceneFeatures {
         };
         add(self.area_lights, "area lights");
         add(self.round_lights, "round lights");
+        add(self.parallelogram_lights, "parallelogram lights");
         add(self.point_lights, "point lights");
         add(self.spot_lights, "spot lights");
         add(self.directional_lights, "directional lights");
@@ -157,6 +166,11 @@ pub struct KernelKey {
     pub cone: bool,
     /// Light samples may be points with shadow rays: false where `cone` takes every light.
     pub shadow_rays: bool,
+    /// Area samples may map the unit square onto a parallelogram light.
+    pub parallelograms: bool,
+    /// Area samples may pick a light's triangle by area: false where `parallelograms` takes every
+    /// area light.
+    pub triangle_picks: bool,
     /// Lights may be chosen per shading point (`LightSelection::Bsdf`).
     pub point_selection: bool,
     /// The scene has exactly one light (`SceneFeatures::single_light`).
@@ -190,6 +204,8 @@ impl KernelKey {
             solid_angle: true,
             cone: true,
             shadow_rays: true,
+            parallelograms: true,
+            triangle_picks: true,
             point_selection: true,
             single_light: false,
             textures: true,
@@ -223,6 +239,11 @@ impl KernelKey {
             solid_angle: features.area_lights && settings.light_sampling == crate::render::LightSampling::SolidAngle,
             cone: features.round_lights && settings.light_sampling == crate::render::LightSampling::Cone,
             shadow_rays: !(features.all_lights_round && settings.light_sampling == crate::render::LightSampling::Cone),
+            parallelograms: features.parallelogram_lights
+                && settings.light_sampling != crate::render::LightSampling::SolidAngle,
+            triangle_picks: !(features.parallelogram_lights
+                && features.all_area_lights_parallelograms
+                && settings.light_sampling != crate::render::LightSampling::SolidAngle),
             point_selection: !features.single_light
                 && settings.light_selection == crate::render::LightSelection::Bsdf
                 && effective_strategy(features, settings).0.samples_lights(),
@@ -262,6 +283,8 @@ impl KernelKey {
             ("SOLID_ANGLE_SAMPLING", flag(self.solid_angle)),
             ("CONE_SAMPLING", flag(self.cone)),
             ("SHADOW_RAY_LIGHTS", flag(self.shadow_rays)),
+            ("PARALLELOGRAM_LIGHTS", flag(self.parallelograms)),
+            ("TRIANGLE_PICKS", flag(self.triangle_picks)),
             ("POINT_LIGHT_SELECTION", flag(self.point_selection)),
             ("SINGLE_LIGHT", flag(self.single_light)),
         ];

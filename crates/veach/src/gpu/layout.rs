@@ -200,7 +200,10 @@ pub struct Light {
     /// (`gpu::light_subtrees::is_round`): `LightSampling::Cone` samples it by the cone that sphere
     /// subtends.
     pub round: u32,
-    pub _pad2: u32,
+    /// 1 + the corner of the light's first emitter triangle opposite the edge it shares with the
+    /// second where the two make a parallelogram (`gpu::light_subtrees::parallelogram_corner`),
+    /// else 0: area samples then map the unit square onto the parallelogram linearly.
+    pub parallelogram: u32,
 }
 
 #[repr(C)]
@@ -349,7 +352,7 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             bound_radius,
             convex,
             round,
-            _pad2
+            parallelogram
         }),
         layout!(EmitterTriangle { p0, alias_prob, e1, alias_index, e2, light }),
         layout!(LightPick { pdf, alias_prob, alias_index }),

@@ -53,6 +53,30 @@ pub fn is_round(triangles: &[[Vec3; 3]], radius: f32) -> bool {
     sphere > 0.0 && area >= 0.5 * sphere
 }
 
+/// Do a light's two triangles make one parallelogram, each sharing an edge with the other and
+/// facing the same way? Then `Some(k)`: corner k of the first triangle is the one opposite the
+/// shared edge, and the light is the parallelogram spanned from it by its two edges there, which
+/// light samples map the unit square onto linearly (lights.wgsl, `light_parallelogram`). Corners
+/// within 1e-5 of the light's size of where the parallelogram puts them count as there.
+pub fn parallelogram_corner(triangles: &[[Vec3; 3]]) -> Option<u32> {
+    let [first, second] = triangles else { return None };
+    let normal = |t: &[Vec3; 3]| (t[1] - t[0]).cross(t[2] - t[0]);
+    let (n0, n1) = (normal(first), normal(second));
+    let size = first.iter().chain(second).map(|p| p.distance(first[0])).fold(0.0f32, f32::max);
+    let tolerance = 1e-5 * size;
+    if !(n0.length() > 0.0 && n1.length() > 0.0 && n0.dot(n1) > 0.0 && tolerance.is_finite()) {
+        return None;
+    }
+    let near = |a: Vec3, b: Vec3| a.distance(b) <= tolerance;
+    (0..3u32).find(|&k| {
+        let k = k as usize;
+        let (origin, s0, s1) = (first[k], first[(k + 1) % 3], first[(k + 2) % 3]);
+        let fourth = s0 + s1 - origin;
+        // The second triangle's corners are the shared edge's ends and the fourth corner, once each.
+        [s0, s1, fourth].iter().all(|&c| second.iter().filter(|&&q| near(q, c)).count() == 1)
+    })
+}
+
 /// A light tag for each host node of `bvh`: 1 + the light whose triangles alone fill the node's
 /// subtree where that light is `convex`, else 0. `triangle_light[t]` is the light of scene
 /// triangle t, or `NO_LIGHT`. A light that shares leaves with other triangles is tagged in the
@@ -108,6 +132,31 @@ mod tests {
 
     fn scene_triangle(p: [Vec3; 3]) -> Triangle {
         Triangle { p, n: [Vec3::Z; 3], uv: Default::default(), material: 0 }
+    }
+
+    #[test]
+    fn two_triangles_sharing_an_edge_make_a_parallelogram_light_when_their_fourth_corner_fits() {
+        let (a, b, c) = (Vec3::new(0.0, 0.0, 1.0), Vec3::new(2.0, 0.0, 1.0), Vec3::new(2.5, 1.0, 1.0));
+        let d = a + c - b;
+        // Each rotation of the first triangle's corners names its corner opposite the diagonal a-c.
+        assert_eq!(parallelogram_corner(&[[a, b, c], [a, c, d]]), Some(1));
+        assert_eq!(parallelogram_corner(&[[b, c, a], [a, c, d]]), Some(0));
+        assert_eq!(parallelogram_corner(&[[c, a, b], [d, a, c]]), Some(2));
+        // The shipped-style fan of a square, and the other diagonal.
+        let quad = triangles(&MeshData::quad(Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y, Vec3::Z));
+        assert_eq!(parallelogram_corner(&quad), Some(1));
+        assert_eq!(parallelogram_corner(&[[a, b, d], [b, c, d]]), Some(0));
+        // Not one: a kite (the fourth corner moved in the plane), a fold (moved off it), opposite
+        // windings, a triangle short, one too many, and a degenerate pair.
+        let kite = d + Vec3::new(0.2, -0.1, 0.0);
+        assert_eq!(parallelogram_corner(&[[a, b, c], [a, c, kite]]), None);
+        assert_eq!(parallelogram_corner(&[[a, b, c], [a, c, d + Vec3::Z * 0.1]]), None);
+        assert_eq!(parallelogram_corner(&[[a, b, c], [a, d, c]]), None);
+        assert_eq!(parallelogram_corner(&[[a, b, c]]), None);
+        assert_eq!(parallelogram_corner(&[[a, b, c], [a, c, d], [a, c, d]]), None);
+        assert_eq!(parallelogram_corner(&[[a, a, c], [a, c, c]]), None);
+        // Rounding within the tolerance still fits.
+        assert_eq!(parallelogram_corner(&[[a, b, c], [a, c, d + Vec3::X * 1e-6]]), Some(1));
     }
 
     #[test]

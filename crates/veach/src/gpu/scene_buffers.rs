@@ -2,7 +2,7 @@
 
 use super::bvh_nodes::encode_bvh_nodes;
 use super::layout::{self, NO_LIGHT};
-use super::light_subtrees::{is_convex, is_round, node_lights};
+use super::light_subtrees::{is_convex, is_round, node_lights, parallelogram_corner};
 use crate::alias::alias_table;
 use crate::bvh::Bvh;
 use crate::features::SceneFeatures;
@@ -128,20 +128,27 @@ fn triangle_corners(scene: &Scene, triangles: &[u32]) -> Vec<[Vec3; 3]> {
 }
 
 /// What the kernels need to know of an area light's shape: convex (`light_subtrees::is_convex`:
-/// its shadow rays skip its subtrees) and round (convex and `light_subtrees::is_round` with the
-/// bounding sphere its GPU record gets: `LightSampling::Cone` samples it by that sphere's cone).
-/// The one place both are decided, for the light records and for `SceneFeatures`.
+/// its shadow rays skip its subtrees), round (convex and `light_subtrees::is_round` with the
+/// bounding sphere its GPU record gets: `LightSampling::Cone` samples it by that sphere's cone)
+/// and a parallelogram (`light_subtrees::parallelogram_corner`: area samples map the unit square
+/// onto it linearly). The one place they are decided, for the light records and `SceneFeatures`.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct AreaLightShape {
     pub convex: bool,
     pub round: bool,
+    /// The corner of the light's first triangle opposite the edge it shares with the second.
+    pub parallelogram: Option<u32>,
 }
 
 pub fn area_light_shape(scene: &Scene, triangles: &[u32]) -> AreaLightShape {
     let corners = triangle_corners(scene, triangles);
     let (_, radius) = bounding_sphere(corners.iter().flatten().copied());
     let convex = is_convex(&corners);
-    AreaLightShape { convex, round: convex && is_round(&corners, radius) }
+    AreaLightShape {
+        convex,
+        round: convex && is_round(&corners, radius),
+        parallelogram: parallelogram_corner(&corners),
+    }
 }
 
 /// The sphere a round area light approximates, for `mitsuba::export`'s analytic spheres: the
@@ -227,6 +234,7 @@ pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) ->
     for (g, shape) in lights.iter_mut().zip(&shapes) {
         g.convex = shape.convex as u32;
         g.round = shape.round as u32;
+        g.parallelogram = shape.parallelogram.map_or(0, |k| k + 1);
     }
     let convex: Vec<bool> = shapes.iter().map(|s| s.convex).collect();
 
