@@ -67,6 +67,8 @@ bugs=(
   "shaders/lights.wgsl|let one_minus_cos = u.x * cone.one_minus_cos_max;|let one_minus_cos = sqrt(u.x) * cone.one_minus_cos_max;|sampling|cone_light|cone samples not uniform in solid angle"
   "shaders/lights.wgsl|return BoundingCone(vec3f(0.0, 0.0, 1.0), 2.0);|return BoundingCone(vec3f(0.0, 0.0, -1.0), 1.0);|sampling|cone_light|inside the bounding sphere: a hemisphere, not every direction"
   "shaders/lights.wgsl|    if cone_sampled(light) {\n        // Every point|    if false \u0026\u0026 cone_sampled(light) {\n        // Every point|strategies|cone_light|BRDF samples finding a round light weighed with its area pdf"
+  "shaders/lights.wgsl|    let k = light.parallelogram - 1u;|    let k = 0u;|sampling|area_light|parallelogram light spanned from its first corner, not the one opposite the shared edge"
+  "shaders/lights.wgsl|light.first_tri + select(0u, 1u, u_light.x + u_light.y > 1.0)|light.first_tri|strategies|textured|parallelogram light: its second half taken as the first triangle (emission texture read off it)"
   "shaders/wavefront.wgsl|SamplePlan(q.plan \u0026 0xffffu, q.light_weighting, q.plan >> 16u)|SamplePlan(q.plan \u0026 0xffffu, LIGHT_ALONE, q.plan >> 16u)|strategies|cone_light|the direction kernel's cone samples weighed as light sampling alone"
 )
 
