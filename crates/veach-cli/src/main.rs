@@ -133,7 +133,7 @@ enum HeuristicArg {
 
 #[derive(Clone, Copy, ValueEnum)]
 enum LightSamplingArg {
-    /// A point uniform on the emitter triangle's area (pdf r² / (|cos θ_l| A))
+    /// A point uniform on the light's area (pdf r² / (|cos θ_l| A)); a quad light through the linear map of the unit square
     Area,
     /// A direction uniform in the emitter triangle's solid angle (Arvo 1995; pdf 1/Ω)
     SolidAngle,

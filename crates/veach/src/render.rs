@@ -50,15 +50,17 @@ pub enum LightSelection {
     Bsdf,
 }
 
-/// How light sampling picks a point on an emitter triangle (after choosing the triangle by area).
+/// How light sampling picks a point on an area light.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum LightSampling {
-    /// Uniform on the triangle's area: p_ω = r² / (|cos θ_l| A).
+    /// Uniform on the light's area: p_ω = r² / (|cos θ_l| A). An emitter triangle chosen by area,
+    /// then a point on it; a light of two triangles making one parallelogram through the linear
+    /// map of the unit square onto it (the same density, better stratified).
     #[default]
     Area,
-    /// Uniform in the triangle's solid angle (Arvo 1995): p_ω = P(triangle) / Ω, bounded where
-    /// area sampling's r² / cos θ_l blows up (contact edges, grazing angles). Triangles that
-    /// subtend less than 3e-4 sr keep area sampling.
+    /// An emitter triangle chosen by area, then a direction uniform in its solid angle (Arvo
+    /// 1995): p_ω = P(triangle) / Ω, bounded where area sampling's r² / cos θ_l blows up (contact
+    /// edges, grazing angles). Triangles that subtend less than 0.01 sr keep area sampling.
     SolidAngle,
     /// Round lights (convex, filling at least half of their bounding sphere's surface: a
     /// tessellated sphere, a cube): a direction uniform in the cone that sphere subtends
