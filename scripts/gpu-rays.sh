@@ -51,7 +51,7 @@ seconds = s["timings_seconds"]["render_gpu"]
 rays = s["rays"]
 camera = int(w) * int(h) * int(spp)
 shadow = (rays - camera) / seconds if strategy == "light" else float("nan")
-adapter = s.get("adapter", {}).get("name", "") if isinstance(s.get("adapter"), dict) else s.get("adapter", "")
+adapter = s["adapter"]
 print(f"{scene:<12} {strategy:<10} {seconds:10.4f} {rays:12d} {rays / seconds / 1e9:12.3f} {shadow / 1e9:14.3f}")
 with open(csv, "a") as f:
     f.write(f"{scene},{strategy},{w},{h},{spp},{seconds},{rays},{rays / seconds},{shadow},{adapter}\n")

@@ -229,6 +229,8 @@ impl KernelKey {
 
     /// The kernel specialised to a scene's features and a render's settings.
     pub fn specialised(features: &SceneFeatures, settings: &RenderSettings, auto: AutoExecution) -> KernelKey {
+        let parallelograms =
+            features.parallelogram_lights && settings.light_sampling != crate::render::LightSampling::SolidAngle;
         KernelKey {
             strategy: Some(effective_strategy(features, settings).0),
             area_lights: features.area_lights,
@@ -239,11 +241,8 @@ impl KernelKey {
             solid_angle: features.area_lights && settings.light_sampling == crate::render::LightSampling::SolidAngle,
             cone: features.round_lights && settings.light_sampling == crate::render::LightSampling::Cone,
             shadow_rays: !(features.all_lights_round && settings.light_sampling == crate::render::LightSampling::Cone),
-            parallelograms: features.parallelogram_lights
-                && settings.light_sampling != crate::render::LightSampling::SolidAngle,
-            triangle_picks: !(features.parallelogram_lights
-                && features.all_area_lights_parallelograms
-                && settings.light_sampling != crate::render::LightSampling::SolidAngle),
+            parallelograms,
+            triangle_picks: !(parallelograms && features.all_area_lights_parallelograms),
             point_selection: !features.single_light
                 && settings.light_selection == crate::render::LightSelection::Bsdf
                 && effective_strategy(features, settings).0.samples_lights(),
