@@ -41,6 +41,9 @@ pub struct Accumulation {
     /// Seconds per pixel-sample, measured as we go (None before the first dispatch).
     cost: Option<f64>,
     last_work: u64,
+    /// The first dispatch's work in rays (`rays_per_camera_sample`), where a headless render has
+    /// set it (`set_first_dispatch_rays`); None: FIRST_DISPATCH_RAYS, at most one pass.
+    first_dispatch_rays: Option<u64>,
     pixel_samples_done: u64,
     render_time: Duration,
     gpu_time: Duration,
@@ -185,6 +188,7 @@ impl Accumulation {
             row_start: 0,
             cost: None,
             last_work: 0,
+            first_dispatch_rays: None,
             pixel_samples_done: 0,
             render_time: Duration::ZERO,
             gpu_time: Duration::ZERO,
@@ -217,6 +221,13 @@ impl Accumulation {
         self.render_time
     }
 
+    /// Sizes the first dispatch, which measures the cost the later ones are sized by, to about
+    /// `rays` (at least one row), passes over the image included. The viewer keeps the default,
+    /// FIRST_DISPATCH_RAYS at most one pass, so that a change of settings shows within a frame.
+    pub fn set_first_dispatch_rays(&mut self, rays: u64) {
+        self.first_dispatch_rays = Some(rays);
+    }
+
     pub fn settings(&self) -> &RenderSettings {
         &self.settings
     }
@@ -241,7 +252,10 @@ impl Accumulation {
         // Never more than 4× the last dispatch's work, so one misleading measurement (a
         // dispatch that waited behind other work, say) cannot size a dispatch of minutes.
         let target_work = match self.cost {
-            None => (FIRST_DISPATCH_RAYS / self.rays_per_camera_sample()).clamp(w as u64, pixels),
+            None => match self.first_dispatch_rays {
+                Some(rays) => (rays / self.rays_per_camera_sample()).max(w as u64),
+                None => (FIRST_DISPATCH_RAYS / self.rays_per_camera_sample()).clamp(w as u64, pixels),
+            },
             Some(c) => ((target.as_secs_f64() / c) as u64).clamp(w as u64, 4 * self.last_work.max(w as u64)),
         };
         let (rows, samples) = if self.row_start == 0 && target_work >= pixels && h <= max_rows {

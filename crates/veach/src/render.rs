@@ -206,7 +206,7 @@ impl Default for RenderSettings {
             sampler: Sampler::Sobol,
             seed: 0,
             time_limit: None,
-            dispatch_target: Duration::from_millis(150),
+            dispatch_target: DEFAULT_DISPATCH_TARGET,
             write_aovs: false,
             hide_emitters: false,
             specialise: true,
@@ -456,6 +456,20 @@ fn pad_for_uniform<T: Default + Clone>(array: &mut Vec<T>, capacity: usize) -> u
     let n = array.len().next_power_of_two().max(64).min(capacity);
     array.resize(n, T::default());
     n as u32
+}
+
+/// A headless render's first dispatch, in rays, with the default dispatch target of 150 ms:
+/// 2^20, four times the viewer's (accumulation.rs, FIRST_DISPATCH_RAYS), about 40 ms of MIS 1 + 1
+/// on lavapipe for the shipped scenes; a 256×256 render of up to 4 such camera samples is then one
+/// dispatch, where each dispatch costs lavapipe a few milliseconds beyond its samples
+/// (docs/performance.md, "One dispatch for small renders"). Scaled with a shorter target (a time
+/// budget's, or a test's 1 ns for one row at a time), so that it does not overshoot it.
+const HEADLESS_FIRST_DISPATCH_RAYS: u64 = 1 << 20;
+const DEFAULT_DISPATCH_TARGET: Duration = Duration::from_millis(150);
+
+fn headless_first_dispatch_rays(dispatch_target: Duration) -> u64 {
+    let scale = (dispatch_target.as_secs_f64() / DEFAULT_DISPATCH_TARGET.as_secs_f64()).min(1.0);
+    (HEADLESS_FIRST_DISPATCH_RAYS as f64 * scale) as u64
 }
 
 impl Renderer {
@@ -740,6 +754,7 @@ impl Renderer {
         progress: &mut dyn FnMut(Progress) -> bool,
     ) -> Result<RenderOutput> {
         let mut acc = Accumulation::new(self, scene, settings, camera)?;
+        acc.set_first_dispatch_rays(headless_first_dispatch_rays(settings.dispatch_target));
         let total_pixel_samples = settings.width as u64 * settings.height as u64 * settings.spp as u64;
         while !acc.is_complete() && settings.time_limit.is_none_or(|t| acc.render_time() < t) {
             acc.dispatch(settings.dispatch_target)?;
