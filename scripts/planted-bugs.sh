@@ -70,6 +70,7 @@ bugs=(
   "shaders/lights.wgsl|    let k = light.parallelogram - 1u;|    let k = 0u;|sampling|area_light|parallelogram light spanned from its first corner, not the one opposite the shared edge"
   "shaders/lights.wgsl|light.first_tri + select(0u, 1u, u_light.x + u_light.y > 1.0)|light.first_tri|strategies|textured|parallelogram light: its second half taken as the first triangle (emission texture read off it)"
   "shaders/wavefront.wgsl|SamplePlan(q.plan \u0026 0xffffu, q.light_weighting, q.plan >> 16u)|SamplePlan(q.plan \u0026 0xffffu, LIGHT_ALONE, q.plan >> 16u)|strategies|cone_light|the direction kernel's cone samples weighed as light sampling alone"
+  "shaders/integrator.wgsl|trace_occluded(origin, d.wi, hit.t * (1.0 - 1.0e-4), 0u)|false|specialise|triangles_compiled|emitters' list: no shadow ray to the emitter a direction sample found"
 )
 
 printf "%-52s %-10s %-16s %s\n" bug test filter result

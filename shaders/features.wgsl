@@ -34,6 +34,10 @@ override PARALLELOGRAM_LIGHTS: bool = true;
 // Some area light sample picks a triangle by area (lights.wgsl, select_emitter_triangle); false
 // where PARALLELOGRAM_LIGHTS takes every area light.
 override TRIANGLE_PICKS: bool = true;
+// Baked kernels (traverse_baked.wgsl) where the driver branches around untaken code: a direction
+// sample finds what it meets among the emitters alone (trace_emitters), then a shadow ray tests
+// the segment to it (integrator.wgsl, direction_sample_to_emitters). False for BVH kernels.
+override EMITTER_LIST: bool = false;
 
 const STRATEGY_FROM_FRAME: u32 = 255u;
 

@@ -389,6 +389,26 @@ fn direction_sample_value(c: ShadingContext, d: DirectionSample, plan: SamplePla
     return w * d.throughput * le;
 }
 
+// A direction sample's value where it can only add emitted radiance (everything but a cone
+// sample), with EMITTER_LIST: the nearest emitter along it (trace_emitters), then a shadow ray to
+// that point, short of it by the light samples' margin. What the closest hit over every triangle
+// gives wherever no blocker lies within that margin: a segment from a surface to a light is what
+// the baked shadow rays' blockers were chosen for (BakedTriangles::mark_blockers). The list holds
+// a scene's few emitters and the shadow ray only its blockers, where the closest hit tests every
+// triangle.
+fn direction_sample_to_emitters(c: ShadingContext, d: DirectionSample, plan: SamplePlan, origin: vec3f, t_max: f32, rays: ptr<function, u32>) -> vec3f {
+    *rays += 1u;
+    let hit = trace_emitters(origin, d.wi, t_max);
+    if !hit.found {
+        return vec3f(0.0);
+    }
+    let value = direction_sample_value(c, d, plan, hit.tri, surface_at(hit, d.wi));
+    if all(value == vec3f(0.0)) || trace_occluded(origin, d.wi, hit.t * (1.0 - 1.0e-4), 0u) {
+        return vec3f(0.0);
+    }
+    return value;
+}
+
 // ---------------------------------------------------------------------------------------------
 // mis-lobes: which samples a point gets.
 
@@ -561,6 +581,11 @@ fn estimate_radiance(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<fu
                 origin = offset_ray_origin(c.s.p, c.s.ng, d.wi);
                 t_max = direction_reach(d, origin);
                 d.valid = t_max > 0.0;
+                // With the emitters' list a BRDF sample needs no pass of this loop.
+                if EMITTER_LIST && d.valid && d.light == NO_LIGHT {
+                    e.brdf += direction_sample_to_emitters(c, d, plan, origin, t_max, rays);
+                    d.valid = false;
+                }
             }
         }
         if !d.valid {

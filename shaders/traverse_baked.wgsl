@@ -19,6 +19,17 @@ fn trace_closest(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
     return with_barycentrics(hit, origin, sh);
 }
 
+// The closest hit along origin + t * dir, t in (0, t_max), among the emitting triangles alone: what
+// a direction sample meets where EMITTER_LIST (features.wgsl) says so; the list is empty otherwise.
+// Behind boxes like the other lists.
+fn trace_emitters(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
+    var hit = Hit(t_max, 0.0, 0.0, 0u, false);
+    let sh = ray_shear(dir);
+    let inv_dir = safe_inverse(dir);
+    {baked emitters: closest_candidate(&hit, origin, sh, p0, p1, p2, triangle); | intersect_aabb(origin, inv_dir, lo, hi, hit.t) < RAY_INF}
+    return with_barycentrics(hit, origin, sh);
+}
+
 // Any hit along origin + t * dir, t in (0, t_max): true when the segment is blocked.
 // Each test returns where it blocks the ray: once all of lavapipe's 8 lanes have returned, the
 // rest is skipped (0.97x the render time of or-ing every test into one flag).

@@ -2,6 +2,12 @@
 // any-hit query (shadow rays), over traverse.wgsl's watertight ray/triangle test. Scenes of at
 // most 64 triangles on CPU adapters use traverse_baked.wgsl instead (BAKED_TRIANGLES_MAX).
 
+// BVH kernels find what direction samples meet with trace_closest: EMITTER_LIST (features.wgsl) is
+// false for them, and this is never called.
+fn trace_emitters(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
+    return Hit(t_max, 0.0, 0.0, 0u, false);
+}
+
 const BVH_STACK_SIZE: u32 = 96u;
 
 // The traversal stack's entries below the top WINDOW (TraversalStack), shared by both traversals

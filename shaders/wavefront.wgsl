@@ -96,6 +96,10 @@ fn estimate_direction_samples(c: ShadingContext, plan: SamplePlan, light_dim: u3
         if t_max <= 0.0 {
             continue;
         }
+        if EMITTER_LIST && d.light == NO_LIGHT {
+            sum.brdf += direction_sample_to_emitters(c, d, plan, origin, t_max, rays);
+            continue;
+        }
         *rays += 1u;
         let hit = trace_closest(origin, d.wi, t_max);
         if hit.found {

@@ -163,11 +163,13 @@ fn wavefront_kernels_render_the_megakernels_image() {
 /// surfaces) render the image their BVH renders, bit for bit: each ray meets the same triangles
 /// in the same watertight test, only in another order (ties would pick another triangle at the
 /// same distance; none of these scenes has one). MIS 1 + 1, so that camera, shadow and BRDF rays
-/// all go through both traversals.
+/// all go through both traversals. The boxed variant also has its direction samples search the
+/// emitters' list and trace a shadow ray to what they find (`BakedTriangles::emitter_list`, what
+/// Mesa 25 gets), in the megakernel and in the wavefront's direction kernel: the same image.
 #[test]
 fn triangles_compiled_into_the_kernel_render_the_bvhs_image() {
     let cpu = renderer().gpu.adapter_info.device_type == wgpu::DeviceType::Cpu;
-    let (mut baked_scenes, mut boxed_scenes) = (0, 0);
+    let (mut baked_scenes, mut boxed_scenes, mut listed_scenes) = (0, 0, 0);
     let stress = veach::assets::stress::STRESS_SCENES
         .iter()
         .map(|&name| (name, load(&veach::assets::stress::stress_scene(name).unwrap(), &format!("baked-{name}"))));
@@ -191,11 +193,17 @@ fn triangles_compiled_into_the_kernel_render_the_bvhs_image() {
         assert!(bvh.kernel.baked.is_none(), "{name}");
         // As the driver picks (Mesa 22.3: no boxes), then with compact groups behind boxes.
         let boxed_scene = renderer().upload_scene_with(&scene, veach::render::BvhMemory::AutoWithBoxes).unwrap();
-        for (kind, gpu_scene) in [("baked", upload(&scene)), ("baked-boxed", boxed_scene)] {
-            let baked = render(&gpu_scene, &settings, &camera);
+        let boxed_wavefront = RenderSettings { execution: Execution::Wavefront, ..settings.clone() };
+        for (kind, gpu_scene, settings) in [
+            ("baked", &upload(&scene), &settings),
+            ("baked-boxed", &boxed_scene, &settings),
+            ("baked-boxed-wavefront", &boxed_scene, &boxed_wavefront),
+        ] {
+            let baked = render(gpu_scene, settings, &camera);
             assert_eq!(baked.kernel.baked.is_some(), cpu, "{name}");
             baked_scenes += baked.kernel.baked.is_some() as u32;
             boxed_scenes += baked.kernel.baked.as_ref().is_some_and(|b| b.boxed_groups() > 0) as u32;
+            listed_scenes += baked.kernel.baked.as_ref().is_some_and(|b| b.emitter_list()) as u32;
             if baked.sum != bvh.sum {
                 let dir = output_dir("baked-triangles");
                 for (out, kind) in [(&baked, kind), (&bvh, "bvh")] {
@@ -207,8 +215,9 @@ fn triangles_compiled_into_the_kernel_render_the_bvhs_image() {
         }
     }
     if cpu {
-        assert!(baked_scenes >= 10, "only {} scenes were baked", baked_scenes / 2);
+        assert!(baked_scenes >= 15, "only {} scenes were baked", baked_scenes / 3);
         assert!(boxed_scenes >= 2, "only {boxed_scenes} scenes had groups behind boxes");
+        assert!(listed_scenes >= 10, "only {} scenes searched the emitters' list", listed_scenes / 2);
     }
 }
 

@@ -286,6 +286,7 @@ impl KernelKey {
             ("TRIANGLE_PICKS", flag(self.triangle_picks)),
             ("POINT_LIGHT_SELECTION", flag(self.point_selection)),
             ("SINGLE_LIGHT", flag(self.single_light)),
+            ("EMITTER_LIST", flag(self.baked.as_ref().is_some_and(|b| b.emitter_list()))),
         ];
         // These exist only in textures.wgsl.
         if self.textures {

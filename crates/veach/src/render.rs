@@ -437,8 +437,9 @@ pub enum BvhMemory {
     Auto,
     /// A storage buffer, whatever its size (`veach scale`, so that its sizes compare like for like).
     Storage,
-    /// `Auto`, with a baked scene's compact groups of triangles behind boxes whatever the driver
-    /// (`BakedTriangles`): for tests, which Mesa 22.3 would otherwise run without them.
+    /// `Auto`, with a baked scene's compact groups of triangles behind boxes and its emitter list
+    /// whatever the driver (`BakedTriangles`): for tests, which Mesa 22.3 would otherwise run
+    /// without them.
     AutoWithBoxes,
 }
 
@@ -554,10 +555,11 @@ impl Renderer {
         let mut arrays: SceneArrays = build_scene_arrays(scene, &features, &bvh);
         // Where the arrays may be uniform (a CPU adapter, `BvhMemory::Auto`), a small scene's
         // triangles are compiled into the kernel instead (before the arrays are padded).
-        // Its compact groups go behind boxes where the driver branches around untaken code.
+        // Where the driver branches around untaken code, its compact groups go behind boxes and
+        // direction samples search the emitters' list (BakedTriangles::emitter_list).
         let info = &self.gpu.adapter_info;
-        let boxes = memory == BvhMemory::AutoWithBoxes || !runs_branches_masked(&info.driver, &info.driver_info);
-        let group_nodes = if boxes { &bvh.nodes[..] } else { &[] };
+        let branches = memory == BvhMemory::AutoWithBoxes || !runs_branches_masked(&info.driver, &info.driver_info);
+        let group_nodes = if branches { &bvh.nodes[..] } else { &[] };
         let baked =
             if capacity > 0 { BakedTriangles::new(&arrays.vertices, &arrays.triangles, group_nodes) } else { None };
         let baked = baked.map(|mut baked| {
@@ -571,6 +573,7 @@ impl Renderer {
                 })
                 .collect();
             baked.mark_blockers(&arrays.triangle_lights, (!directional).then_some(&delta[..]));
+            baked.set_emitter_list(branches);
             Arc::new(baked)
         });
         let bvh_stack_bound = crate::gpu::bvh_nodes::stack_bound(&arrays.bvh_nodes);

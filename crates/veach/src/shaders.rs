@@ -1,7 +1,7 @@
 //! The WGSL kernel, composed at load time from one file per concept in `shaders/`.
 
 use crate::features::UniformArrays;
-use crate::gpu::baked_triangles::BakedTriangles;
+use crate::gpu::baked_triangles::{BakedList, BakedTriangles};
 use crate::gpu::bvh_nodes::BVH_STACK_SIZE;
 
 /// The shader files in the order they are joined. Later files use what earlier ones declare.
@@ -116,13 +116,16 @@ fn bake_triangles(template: &str, triangles: &BakedTriangles) -> String {
         match trimmed.strip_prefix("{baked ").and_then(|rest| rest.strip_suffix('}')) {
             Some(statement) => {
                 let indent = &line[..line.len() - trimmed.len()];
-                let (statement, blockers_only) = match statement.strip_prefix("blockers: ") {
-                    Some(s) => (s, true),
-                    None => (statement, false),
+                let (statement, which) = if let Some(s) = statement.strip_prefix("blockers: ") {
+                    (s, BakedList::Blockers)
+                } else if let Some(s) = statement.strip_prefix("emitters: ") {
+                    (s, BakedList::Emitters)
+                } else {
+                    (statement, BakedList::All)
                 };
                 let (statement, box_test) = statement.rsplit_once(" | ").expect("a baked line names its box test");
                 out.push_str(indent);
-                out.push_str(&triangles.expand(statement, box_test, indent, blockers_only));
+                out.push_str(&triangles.expand(statement, box_test, indent, which));
             }
             None => out.push_str(line),
         }

@@ -22,6 +22,17 @@ pub const BAKED_TRIANGLES_MAX: usize = 64;
 const GROUP_MAX_AREA_FRACTION: f32 = 0.25;
 const GROUP_MIN_TRIANGLES: usize = 4;
 
+/// Which of the triangles a baked line is written out for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BakedList {
+    All,
+    /// Those that can block a shadow ray (`mark_blockers`).
+    Blockers,
+    /// The emitting ones (`mark_blockers`), where direction samples search them (`emitter_list`;
+    /// none otherwise).
+    Emitters,
+}
+
 /// Triangles tested one after the other, or with `boxed` only where the ray meets their bounding
 /// box: a branch around the group that Mesa 25's lavapipe takes when none of its 8 lanes meets the
 /// box (Mesa 22.3 runs the group under a mask whatever the box says: neutral there).
@@ -41,6 +52,11 @@ pub struct BakedTriangles {
     corners: Vec<[[u32; 3]; 3]>,
     /// Whether each triangle can block a shadow ray (`mark_blockers`).
     blockers: Vec<bool>,
+    /// Whether each triangle emits (`mark_blockers`).
+    emitters: Vec<bool>,
+    /// Direction samples find what they meet among the emitters alone, then test the segment to it
+    /// with a shadow ray (`trace_emitters` in traverse_baked.wgsl, `EMITTER_LIST`).
+    emitter_list: bool,
     /// The triangles in order, in runs tested alone or behind their box.
     groups: Vec<BakedGroup>,
 }
@@ -50,7 +66,12 @@ impl std::fmt::Debug for BakedTriangles {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let boxed: usize = self.groups.iter().filter(|g| g.boxed).map(|g| g.triangles.len()).sum();
         let (n, groups, blockers) = (self.corners.len(), self.boxed_groups(), self.blocker_count());
-        write!(f, "{n} triangles ({boxed} in {groups} boxed groups), {blockers} shadow-ray blockers")
+        write!(f, "{n} triangles ({boxed} in {groups} boxed groups), {blockers} shadow-ray blockers")?;
+        if self.emitter_list {
+            let emitters = self.emitters.iter().filter(|&&e| e).count();
+            write!(f, ", direction samples by the list of {emitters} emitters")?;
+        }
+        Ok(())
     }
 }
 
@@ -77,6 +98,7 @@ impl BakedTriangles {
             corners.push(c);
         }
         let blockers = vec![true; corners.len()];
+        let emitters = vec![false; corners.len()];
         let mut groups = Vec::new();
         if !nodes.is_empty() {
             collect_groups(nodes, 0, surface_area(&nodes[0]), &mut groups);
@@ -88,7 +110,7 @@ impl BakedTriangles {
         if !listed.iter().copied().eq(0..corners.len()) {
             groups = vec![BakedGroup { triangles: (0..corners.len()).collect(), boxed: false }];
         }
-        Some(BakedTriangles { corners, blockers, groups })
+        Some(BakedTriangles { corners, blockers, emitters, emitter_list: false, groups })
     }
 
     /// Leaves out of the shadow rays' tests the triangles that no shadow ray can meet before its
@@ -100,6 +122,23 @@ impl BakedTriangles {
             self.corners.iter().map(|c| c.map(|bits| Vec3::from_array(bits.map(f32::from_bits)))).collect();
         let emits: Vec<bool> = triangle_lights.iter().map(|&l| l != crate::gpu::layout::NO_LIGHT).collect();
         self.blockers = shadow_blockers(&corners, &emits, delta_lights);
+        self.emitters = emits;
+    }
+
+    /// Whether direction samples search the emitters' list and trace a shadow ray to what they
+    /// find, instead of a closest hit over every triangle: the same answer wherever no blocker lies
+    /// within the shadow rays' margin of the light (the shipped scenes and the stress scenes render
+    /// the BVH's image bit for bit, tests/specialise.rs). It pays where the driver branches around
+    /// code no lane runs (Mesa 25's lavapipe: Cornell box 0.89-0.91x), and not on Mesa 22.3, which
+    /// runs the emitter test and its shadow ray under a mask in every batch, where the closest hit
+    /// they replace was a loop pass that only batches with a BRDF sample to trace took (1.13x);
+    /// docs/performance.md, "Direction samples through the emitters' list".
+    pub fn set_emitter_list(&mut self, on: bool) {
+        self.emitter_list = on;
+    }
+
+    pub fn emitter_list(&self) -> bool {
+        self.emitter_list
     }
 
     /// Triangles that shadow rays test.
@@ -125,11 +164,19 @@ impl BakedTriangles {
     /// triangle's index, one statement a line. A boxed group's lines go inside
     /// `if BOX_TEST { ... }`, `box_test` naming its box's corners lo and hi (the box of the
     /// triangles listed, so of the blockers alone with `blockers_only`).
-    pub fn expand(&self, template: &str, box_test: &str, indent: &str, blockers_only: bool) -> String {
+    pub fn expand(&self, template: &str, box_test: &str, indent: &str, which: BakedList) -> String {
         let mut out = String::new();
         for group in &self.groups {
-            let kept: Vec<usize> =
-                group.triangles.iter().copied().filter(|&i| self.blockers[i] || !blockers_only).collect();
+            let kept: Vec<usize> = group
+                .triangles
+                .iter()
+                .copied()
+                .filter(|&i| match which {
+                    BakedList::All => true,
+                    BakedList::Blockers => self.blockers[i],
+                    BakedList::Emitters => self.emitter_list && self.emitters[i],
+                })
+                .collect();
             let (open, inner) = if group.boxed && kept.len() >= GROUP_MIN_TRIANGLES {
                 let (lo, hi) = self.bounds(&kept);
                 let test = replace_word(&replace_word(box_test, "lo", &wgsl_vec3(lo)), "hi", &wgsl_vec3(hi));
@@ -266,7 +313,7 @@ mod tests {
             IndexedTriangle { v0: 2, v1: 1, v2: 0, material: 0 },
         ];
         let baked = BakedTriangles::new(&vertices, &triangles, &[]).unwrap();
-        let text = baked.expand("f(p0, p1, p2, triangle, p00);", "box(lo, hi)", "  ", false);
+        let text = baked.expand("f(p0, p1, p2, triangle, p00);", "box(lo, hi)", "  ", BakedList::All);
         assert_eq!(
             text,
             "f(vec3f(0.0f, 0.0f, 0.0f), vec3f(1.0f, 0.0f, 0.0f), vec3f(0.0f, 2.5f, -1.0f), 0u, p00);\n  \
@@ -281,13 +328,26 @@ mod tests {
         let mut baked = BakedTriangles::new(&vertices, &[t; 4], &[]).unwrap();
         assert_eq!(baked.blocker_count(), 4, "every triangle blocks until marked");
         baked.blockers = vec![false, true, false, true];
-        assert_eq!(baked.expand("f(triangle);", "box(lo, hi)", "", true), "f(1u);\nf(3u);");
-        assert_eq!(baked.expand("f(triangle);", "box(lo, hi)", "", false).lines().count(), 4);
+        assert_eq!(baked.expand("f(triangle);", "box(lo, hi)", "", BakedList::Blockers), "f(1u);\nf(3u);");
+        assert_eq!(baked.expand("f(triangle);", "box(lo, hi)", "", BakedList::All).lines().count(), 4);
         // A lone triangle with nothing on either side of its plane: no shadow ray can cross it.
         baked.mark_blockers(&[crate::gpu::layout::NO_LIGHT; 4], Some(&[]));
         assert_eq!(baked.blocker_count(), 0);
         baked.mark_blockers(&[crate::gpu::layout::NO_LIGHT; 4], None);
         assert_eq!(baked.blocker_count(), 4, "a directional light's shadow rays cross any plane");
+    }
+
+    #[test]
+    fn the_emitters_list_holds_the_emitting_triangles_once_switched_on() {
+        let vertices = [vertex([0.0, 0.0, 0.0]), vertex([1.0, 0.0, 0.0]), vertex([0.0, 1.0, 0.0])];
+        let t = IndexedTriangle { v0: 0, v1: 1, v2: 2, material: 0 };
+        let mut baked = BakedTriangles::new(&vertices, &[t; 4], &[]).unwrap();
+        let no = crate::gpu::layout::NO_LIGHT;
+        baked.mark_blockers(&[no, 0, no, 1], None);
+        assert_eq!(baked.expand("f(triangle);", "box(lo, hi)", "", BakedList::Emitters), "", "off by default");
+        baked.set_emitter_list(true);
+        assert_eq!(baked.expand("f(triangle);", "box(lo, hi)", "", BakedList::Emitters), "f(1u);\nf(3u);");
+        assert!(format!("{baked:?}").ends_with("direction samples by the list of 2 emitters"), "{baked:?}");
     }
 
     #[test]
@@ -311,16 +371,19 @@ mod tests {
         ];
         let mut baked = BakedTriangles::new(&vertices, &triangles, &nodes).unwrap();
         assert_eq!(baked.boxed_groups(), 1);
-        let text = baked.expand("f(triangle);", "box(lo, hi)", "", false);
+        let text = baked.expand("f(triangle);", "box(lo, hi)", "", BakedList::All);
         let expected = "f(0u);\nif box(vec3f(1.0f, 0.0f, 0.0f), vec3f(7.0f, 1.0f, 1.0f)) {\n    f(1u);\n    f(2u);\n    \
                         f(3u);\n    f(4u);\n    f(5u);\n    f(6u);\n    f(7u);\n}";
         assert_eq!(text, expected);
         // Shadow rays: the box of the blockers alone; fewer than GROUP_MIN_TRIANGLES go unboxed.
         baked.blockers = vec![true, false, true, true, false, true, false, false];
-        assert_eq!(baked.expand("f(triangle);", "box(lo, hi)", "", true), "f(0u);\nf(2u);\nf(3u);\nf(5u);");
+        assert_eq!(
+            baked.expand("f(triangle);", "box(lo, hi)", "", BakedList::Blockers),
+            "f(0u);\nf(2u);\nf(3u);\nf(5u);"
+        );
         baked.blockers[6] = true;
         assert_eq!(
-            baked.expand("f(triangle);", "box(lo, hi)", "", true),
+            baked.expand("f(triangle);", "box(lo, hi)", "", BakedList::Blockers),
             "f(0u);\nif box(vec3f(2.0f, 0.0f, 0.0f), vec3f(6.0f, 1.0f, 1.0f)) {\n    f(2u);\n    f(3u);\n    f(5u);\n    f(6u);\n}"
         );
         // Without a BVH, or with one that does not list each triangle once: no groups.
@@ -328,7 +391,7 @@ mod tests {
         let short = [nodes[0], nodes[1], nodes[2], nodes[3], node([1.0, 0.0, 0.0], [3.0, 1.0, 1.0], 1, 2)];
         let baked = BakedTriangles::new(&vertices, &triangles, &short).unwrap();
         assert_eq!(baked.boxed_groups(), 0);
-        assert_eq!(baked.expand("f(triangle);", "box(lo, hi)", "", false).lines().count(), 8);
+        assert_eq!(baked.expand("f(triangle);", "box(lo, hi)", "", BakedList::All).lines().count(), 8);
     }
 
     #[test]
