@@ -1,13 +1,13 @@
 // traverse_baked.wgsl: the traversal of a scene small enough to need no BVH, on CPU adapters
 // (crates/veach/src/gpu/baked_triangles.rs decides): every ray tests every triangle, and the
 // triangles' corners are constants in the kernel. The host writes one line per triangle, in the
-// BVH's triangle order, where the two `{baked ...}` lines stand. On lavapipe a BVH step gathers its
+// BVH's triangle order, where the `{baked ...}` lines stand. On lavapipe a BVH step gathers its
 // node lane by lane, some 600 instructions; a triangle whose corners are constants costs about 50,
 // with no loads at all (the same corners read from a uniform array at constant indices cost more
 // than the BVH): the Cornell box's 36 triangles render in 0.68x the BVH's time, the same image bit
 // for bit (docs/performance.md, "Small scenes compiled into the kernel"). Where the driver branches
 // around code no lane runs (Mesa 25, not 22.3), each compact group of triangles (a block in a room:
-// a small BVH subtree) is tested only where the ray meets its box, the text after ` | ` in the two
+// a small BVH subtree) is tested only where the ray meets its box, the text after ` | ` in those
 // lines (Cornell box 0.86-0.89x on Mesa 25).
 
 // Closest hit along origin + t * dir, t in (0, t_max).

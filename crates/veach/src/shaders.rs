@@ -106,8 +106,9 @@ pub fn render_kernel_source(
 }
 
 /// traverse_baked.wgsl with each `{baked STATEMENT | BOX_TEST}` line written out once per triangle,
-/// and each `{baked blockers: STATEMENT | BOX_TEST}` line once per triangle that can block a shadow
-/// ray; BOX_TEST (naming the box's corners lo and hi) guards each group of nearby triangles
+/// each `{baked blockers: STATEMENT | BOX_TEST}` line once per triangle that can block a shadow
+/// ray, and each `{baked emitters: STATEMENT | BOX_TEST}` line once per emitting triangle where
+/// direction samples search them (`BakedTriangles::emitter_list`); BOX_TEST (naming the box's corners lo and hi) guards each group of nearby triangles
 /// (`BakedTriangles::expand`).
 fn bake_triangles(template: &str, triangles: &BakedTriangles) -> String {
     let mut out = String::new();

@@ -129,7 +129,7 @@ impl BakedTriangles {
     /// find, instead of a closest hit over every triangle: the same answer wherever no blocker lies
     /// within the shadow rays' margin of the light (the shipped scenes and the stress scenes render
     /// the BVH's image bit for bit, tests/specialise.rs). It pays where the driver branches around
-    /// code no lane runs (Mesa 25's lavapipe: Cornell box 0.89-0.91x), and not on Mesa 22.3, which
+    /// code no lane runs (Mesa 25's lavapipe: Cornell box 0.89-0.94x), and not on Mesa 22.3, which
     /// runs the emitter test and its shadow ray under a mask in every batch, where the closest hit
     /// they replace was a loop pass that only batches with a BRDF sample to trace took (1.13x);
     /// docs/performance.md, "Direction samples through the emitters' list".
@@ -159,11 +159,10 @@ impl BakedTriangles {
         self.corners.is_empty()
     }
 
-    /// `template` (a statement naming p0, p1, p2 and triangle) once per triangle (once per
-    /// shadow-ray blocker with `blockers_only`), with the corners as WGSL literals and the
-    /// triangle's index, one statement a line. A boxed group's lines go inside
-    /// `if BOX_TEST { ... }`, `box_test` naming its box's corners lo and hi (the box of the
-    /// triangles listed, so of the blockers alone with `blockers_only`).
+    /// `template` (a statement naming p0, p1, p2 and triangle) once per triangle of list `which`,
+    /// with the corners as WGSL literals and the triangle's index, one statement a line. A boxed
+    /// group's lines go inside `if BOX_TEST { ... }`, `box_test` naming its box's corners lo and hi
+    /// (the box of the triangles listed, so of the blockers alone with `BakedList::Blockers`).
     pub fn expand(&self, template: &str, box_test: &str, indent: &str, which: BakedList) -> String {
         let mut out = String::new();
         for group in &self.groups {
