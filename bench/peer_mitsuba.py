@@ -23,6 +23,12 @@ cones instead, a technique Mitsuba applies to its analytic `sphere` shapes but n
 --round-lights-as-spheres`), so that both renderers sample them by cone (the geometry then
 differs by the tessellation: the "relMSE between references" column says by how much).
 
+`--veach-control-variate` adds veach's unshadowed control variate (`veach render
+--control-variate`): the same 1 + 1 samples, MIS-weighted the same, plus the light each diffuse
+point would get with nothing in the way, in closed form, so that the samples estimate only the
+shadowed difference. Mitsuba has no such estimator; the tables then compare veach's best
+estimator with Mitsuba's best configuration, and say so in their header.
+
 Samplers: veach uses its default, Owen-scrambled Sobol points (--veach-sampler). Mitsuba is run
 with each sampler of --mitsuba-samplers (default: `independent`, its default, and `multijitter`,
 its best at equal time on these scenes: docs/performance.md), one table each, so that veach is
@@ -80,12 +86,13 @@ def run(cmd):
 
 
 def veach_render(veach, scene, out, width, height, spp, seed, light, brdf, strategy="mis", selection="power",
-                 sampler="sobol", heuristic="power", light_sampling="area"):
+                 sampler="sobol", heuristic="power", light_sampling="area", control_variate=False):
     stats = out.with_suffix(".json")
     run([veach, "render", scene, "-o", out, "--width", str(width), "--height", str(height), "--spp", str(spp),
          "--seed", str(seed), "--strategy", strategy, "--light-samples", str(light), "--brdf-samples", str(brdf),
          "--light-selection", selection, "--sampler", sampler, "--heuristic", heuristic,
-         "--light-sampling", light_sampling, "--hide-emitters", "--stats", stats, "--quiet"])
+         "--light-sampling", light_sampling, "--hide-emitters", "--stats", stats, "--quiet"]
+        + (["--control-variate"] if control_variate else []))
     s = json.loads(stats.read_text())
     veach_render.driver = f"{s['adapter']}, {s.get('driver', 'driver unknown')}"
     return read_pfm(out), s["timings_seconds"]["render"]
@@ -108,6 +115,9 @@ def main():
     ap.add_argument("--veach-light-sampling", default="area", choices=["area", "solid-angle", "cone"],
                     help="how veach's timed renders sample a point or direction on the chosen light: area (the "
                          "same technique as Mitsuba's mesh emitters), or cone (spheres by their bounding cone)")
+    ap.add_argument("--veach-control-variate", action="store_true",
+                    help="veach's timed renders add the unshadowed diffuse light in closed form and sample only "
+                         "the difference (veach render --control-variate; at most 32 emitter triangles)")
     ap.add_argument("--mitsuba-spheres", action="store_true",
                     help="export round lights (the Veach scene's spheres) as analytic Mitsuba spheres of the same "
                          "area, which Mitsuba samples by their cones: pair with --veach-light-sampling cone")
@@ -167,7 +177,8 @@ def main():
             for seed in range(1, args.seeds + 1):
                 img, seconds = veach_render(args.veach, scene, out_dir / f"{name}-veach.pfm", w, h, spp, seed, 1, 1,
                                             selection=args.veach_light_selection, sampler=args.veach_sampler,
-                                            light_sampling=args.veach_light_sampling)
+                                            light_sampling=args.veach_light_sampling,
+                                            control_variate=args.veach_control_variate)
                 e = relmse(img, reference)
                 rows.append((name, "veach", spp, seed, seconds, e, e))
                 line = f"{name} spp {spp} seed {seed}: veach {seconds:.3f} s relMSE {e:.3e}"
@@ -196,7 +207,8 @@ def main():
             f.write(",".join(str(v) for v in r) + "\n")
     # lavapipe's speed depends on the Mesa release (22.3 against 25: 1.4-3.3x), so say which ran.
     print(f"veach ({args.veach_sampler} sampler, lights by {args.veach_light_selection}, "
-          f"{args.veach_light_sampling} light sampling) on {veach_render.driver}; "
+          f"{args.veach_light_sampling} light sampling"
+          f"{', unshadowed control variate' if args.veach_control_variate else ''}) on {veach_render.driver}; "
           f"Mitsuba {mi.__version__} ({mi.variant()}){', round lights as analytic spheres' if args.mitsuba_spheres else ''}")
     for sampler in samplers:
         print(f"\nMitsuba with the `{sampler}` sampler:\n")

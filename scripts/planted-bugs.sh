@@ -71,6 +71,9 @@ bugs=(
   "shaders/lights.wgsl|light.first_tri + select(0u, 1u, u_light.x + u_light.y > 1.0)|light.first_tri|strategies|textured|parallelogram light: its second half taken as the first triangle (emission texture read off it)"
   "shaders/wavefront.wgsl|SamplePlan(q.plan \u0026 0xffffu, q.light_weighting, q.plan >> 16u)|SamplePlan(q.plan \u0026 0xffffu, LIGHT_ALONE, q.plan >> 16u)|strategies|cone_light|the direction kernel's cone samples weighed as light sampling alone"
   "shaders/integrator.wgsl|trace_occluded(origin, d.wi, hit.t * (1.0 - 1.0e-4), 0u)|false|specialise|triangles_compiled|emitters' list: no shadow ray to the emitter a direction sample found"
+  "shaders/control_variate.wgsl|    let above_a = da >= 0.0;\n    let above_b = db >= 0.0;|    let above_a = true;\n    let above_b = true;|strategies|control_variate|control variate: emitters not clipped to the horizon"
+  "shaders/integrator.wgsl|    if wi.z > 0.0 {\n        r.g_cv|    if wi.z > 0.0 \u0026\u0026 dot(ls.wi, c.s.ng) > 0.0 {\n        r.g_cv|strategies|control_variate|control variate: light samples' g left out below the geometric normal"
+  "shaders/control_variate.wgsl|                    w = mis_weight(f32(plan.m), d.pdf, f32(plan.n), p_light);|                    w = 1.0;|analytic|control_variate|control variate: direction samples' g not MIS-weighted"
 )
 
 printf "%-52s %-10s %-16s %s\n" bug test filter result

@@ -38,6 +38,9 @@ override TRIANGLE_PICKS: bool = true;
 // sample finds what it meets among the emitters alone (trace_emitters), then a shadow ray tests
 // the segment to it (integrator.wgsl, direction_sample_to_emitters). False for BVH kernels.
 override EMITTER_LIST: bool = false;
+// The unshadowed diffuse light may be a control variate (frame.control_variate;
+// control_variate.wgsl).
+override CONTROL_VARIATE: bool = true;
 
 const STRATEGY_FROM_FRAME: u32 = 255u;
 

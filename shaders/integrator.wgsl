@@ -125,17 +125,32 @@ struct LightSampleEval {
     // The glossy lobe's part of g, and the sampled direction in the shading frame.
     g_glossy: vec3f,
     wi: vec3f,
+    // With the control variate (control_variate.wgsl): g's counterpart k L_e |cos θ_i|, taken
+    // before the shadow ray; zero without it.
+    g_cv: vec3f,
 }
 
 // One sample of light `index`, chosen with probability p_select, with its shadow ray traced;
 // u is the 2D sample (what the light choice left of it) for the point on the light.
 fn trace_light_sample(c: ShadingContext, index: u32, p_select: f32, u: vec2f, rays: ptr<function, u32>) -> LightSampleEval {
-    var r = LightSampleEval(vec3f(0.0), 0.0, false, vec3f(0.0), vec3f(0.0));
+    var r = LightSampleEval(vec3f(0.0), 0.0, false, vec3f(0.0), vec3f(0.0), vec3f(0.0));
     let ls = sample_light(index, c.s.p, u);
-    if ls.pdf <= 0.0 || dot(ls.wi, c.s.ng) <= 0.0 {
+    if ls.pdf <= 0.0 {
         return r;
     }
     let wi = frame_to_local(c.frame, ls.wi);
+    r.is_delta = HAS_DELTA_LIGHTS && ls.is_delta;
+    // A delta light's "pdf" is the probability of choosing it; no direction density.
+    r.p_light = select(p_select * ls.pdf, p_select, r.is_delta);
+    r.wi = wi;
+    // The control variate's g is not clipped to the geometric normal's hemisphere: it counts
+    // below it too, where f L_e V cos is zero.
+    if wi.z > 0.0 {
+        r.g_cv = control_variate_light_integrand(c, ls.value, wi, r.is_delta);
+    }
+    if dot(ls.wi, c.s.ng) <= 0.0 {
+        return r;
+    }
     let lobes = bsdf_eval_lobes(c.bsdf, c.wo, wi);
     let f = lobes.diffuse + lobes.glossy;
     if wi.z <= 0.0 || all(f == vec3f(0.0)) || all(ls.value == vec3f(0.0)) {
@@ -164,26 +179,25 @@ fn trace_light_sample(c: ShadingContext, index: u32, p_select: f32, u: vec2f, ra
         return r;
     }
     r.g = f * ls.value * wi.z;
-    r.is_delta = HAS_DELTA_LIGHTS && ls.is_delta;
-    // A delta light's "pdf" is the probability of choosing it; no direction density.
-    r.p_light = select(p_select * ls.pdf, p_select, r.is_delta);
     r.g_glossy = lobes.glossy * ls.value * wi.z;
-    r.wi = wi;
     return r;
 }
 
 // A light sample's contribution g / p_light, MIS-weighted as the plan says. A delta light has
 // no density to weigh against: weight 1.
+// With the control variate the value is that of g − g_cv (g_cv is zero without it, and for
+// mis-lobes, which does not take it).
 fn light_sample_value(c: ShadingContext, s: LightSampleEval, plan: SamplePlan) -> vec3f {
-    if all(s.g == vec3f(0.0)) {
+    if all(s.g == vec3f(0.0)) && all(s.g_cv == vec3f(0.0)) {
         return vec3f(0.0);
     }
+    let g = s.g - s.g_cv;
     if s.is_delta || plan.light_weighting == LIGHT_ALONE || plan.m == 0u {
-        return s.g / s.p_light;
+        return g / s.p_light;
     }
     if plan.light_weighting == LIGHT_MIS {
         let w = mis_weight(f32(plan.n), s.p_light, f32(plan.m), bsdf_pdf(c.bsdf, c.wo, s.wi));
-        return w * s.g / s.p_light;
+        return w * g / s.p_light;
     }
     // LIGHT_LOBE_MIS: the density of sampling the glossy lobe alone (sample_direction); m > 0
     // there only for a GGX lobe or a mirror, and a mirror's g_glossy is zero.
@@ -270,7 +284,7 @@ fn cone_light_sample(c: ShadingContext, plan: SamplePlan, k: u32, light_dim: u32
         return d;
     }
     let lobes = bsdf_eval_lobes(c.bsdf, c.wo, wi);
-    let s = LightSampleEval((lobes.diffuse + lobes.glossy) * wi.z, d.pdf, false, lobes.glossy * wi.z, wi);
+    let s = LightSampleEval((lobes.diffuse + lobes.glossy) * wi.z, d.pdf, false, lobes.glossy * wi.z, wi, vec3f(0.0));
     d.throughput = light_sample_value(c, s, plan);
     d.valid = any(d.throughput != vec3f(0.0));
     return d;
@@ -573,6 +587,9 @@ fn estimate_radiance(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<fu
         while !d.valid && taken < plan.m + cone_passes(plan) {
             if taken < plan.m {
                 d = sample_direction(c, stream);
+                if uses_control_variate() {
+                    e.brdf += control_variate_direction_term(c, d, plan);
+                }
             } else {
                 d = cone_light_sample(c, plan, taken - plan.m, light_dim, *stream);
             }
@@ -597,6 +614,9 @@ fn estimate_radiance(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<fu
     }
     var light_stream = SampleStream((*stream).index, (*stream).seed, light_dim);
     e.light = estimate_light_samples(c, plan, &light_stream, rays);
+    if uses_control_variate() {
+        e.light += unshadowed_light_integral(c);
+    }
     if CONE_SAMPLING && plan.n > 0u {
         e.light += cone_sum / f32(plan.n);
     }

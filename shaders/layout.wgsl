@@ -75,7 +75,8 @@ struct FrameParams {
     sampler: u32,
     // At least 2 (the host sets 2): loop_budget_held's trip count, read at run time.
     loop_check: u32,
-    _pad5: u32,
+    // 1: the unshadowed diffuse light is a control variate (control_variate.wgsl).
+    control_variate: u32,
     _pad6: u32,
     // A box around every area light's triangles, for emitter_reach: the sphere's companion,
     // tighter for lights that lie in a plane or along a line.

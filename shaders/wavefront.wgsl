@@ -40,6 +40,9 @@ fn render_light_pass(@builtin(global_invocation_id) gid: vec3u) {
         }
         let plan = sample_plan(c);
         e.light = estimate_light_samples(c, plan, &stream, &rays);
+        if uses_control_variate() {
+            e.light += unshadowed_light_integral(c);
+        }
         if !loop_budget_held() {
             counters[pixel].truncated += 1u;
             return;
@@ -87,6 +90,9 @@ fn estimate_direction_samples(c: ShadingContext, plan: SamplePlan, light_dim: u3
             d = sample_direction(c, stream);
         } else {
             d = cone_light_sample(c, plan, k - plan.m, light_dim, *stream);
+        }
+        if uses_control_variate() && k < plan.m {
+            sum.brdf += control_variate_direction_term(c, d, plan);
         }
         if !d.valid {
             continue;

@@ -163,3 +163,26 @@ fn contribution_images_add_up_to_the_image() {
         }
     }
 }
+
+/// The control variate is refused, with the reason, where the kernel's closed form does not hold
+/// or would cost a loop over too many emitter triangles; nothing is rendered then.
+#[test]
+fn the_control_variate_is_refused_where_it_does_not_apply() {
+    let cv = |strategy| RenderSettings { control_variate: true, ..small(strategy, 1) };
+    let attempt = |scene: &veach::Scene, s: &RenderSettings| {
+        let gpu_scene = upload(scene);
+        let camera = scene.camera(None).unwrap();
+        renderer().render(&gpu_scene, s, &camera, &mut |_| true).err().map(|e| e.to_string())
+    };
+    let veach_scene = shipped_scene("veach-mis");
+    let error = attempt(&veach_scene, &cv(Strategy::Mis)).expect("the Veach scene's lights have too many triangles");
+    assert!(error.contains("--control-variate") && error.contains("at most 32"), "{error}");
+    // (On a scene without glossy lobes mis-lobes is light sampling, which takes it.)
+    let error = attempt(&veach_scene, &cv(Strategy::MisLobes)).expect("mis-lobes does not take it");
+    assert!(error.contains("mis-lobes"), "{error}");
+    let cornell = shipped_scene("cornell-box");
+    let cone = RenderSettings { light_sampling: veach::LightSampling::Cone, ..cv(Strategy::Mis) };
+    let error = attempt(&cornell, &cone).expect("cone sampling does not take it");
+    assert!(error.contains("cone"), "{error}");
+    assert_eq!(attempt(&cornell, &cv(Strategy::Mis)), None, "the Cornell box takes it");
+}

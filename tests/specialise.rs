@@ -287,3 +287,49 @@ fn a_wall_at_the_edge_of_the_scene_shadows_a_delta_light_beyond_it() {
         assert_eq!(lit(&baked), 0, "{name}: the floor behind the wall is lit with baked triangles");
     }
 }
+
+/// With the control variate (shaders/control_variate.wgsl) every kernel still renders the same
+/// image, bit for bit: the generic kernel, the specialised megakernel and wavefront, over the BVH,
+/// the baked triangles and the emitters' list (baked, boxed), for every strategy that takes it. Its
+/// terms depend on the shading point and the lights only, and are added in the same order.
+#[test]
+fn every_kernel_renders_the_same_image_with_the_control_variate() {
+    let stress = ["touching-light", "grazing-light"]
+        .map(|name| (name, load(&veach::assets::stress::stress_scene(name).unwrap(), &format!("cv-{name}"))));
+    for (name, scene) in stress.into_iter().chain([("cornell-box", shipped_scene("cornell-box"))]) {
+        let camera = scene.camera(None).unwrap();
+        let bvh_scene = renderer().upload_scene_with(&scene, veach::render::BvhMemory::Storage).unwrap();
+        let boxed_scene = renderer().upload_scene_with(&scene, veach::render::BvhMemory::AutoWithBoxes).unwrap();
+        let auto_scene = upload(&scene);
+        for strategy in [Strategy::Uniform, Strategy::Brdf, Strategy::Light, Strategy::Mis] {
+            let settings = RenderSettings {
+                width: 24,
+                height: 16,
+                spp: 3,
+                strategy,
+                light_samples: 2,
+                brdf_samples: 2,
+                light_selection: LightSelection::Bsdf,
+                control_variate: true,
+                seed: 4,
+                execution: Execution::Megakernel,
+                ..Default::default()
+            };
+            let wavefront = RenderSettings { execution: Execution::Wavefront, ..settings.clone() };
+            let generic = RenderSettings { specialise: false, ..settings.clone() };
+            let first = render(&bvh_scene, &settings, &camera);
+            assert!(first.kernel.control_variate && !generic.specialise);
+            for (kind, gpu_scene, s) in [
+                ("generic", &bvh_scene, &generic),
+                ("bvh-wavefront", &bvh_scene, &wavefront),
+                ("baked", &auto_scene, &settings),
+                ("baked-wavefront", &auto_scene, &wavefront),
+                ("baked-boxed", &boxed_scene, &settings),
+                ("baked-boxed-wavefront", &boxed_scene, &wavefront),
+            ] {
+                let out = render(gpu_scene, s, &camera);
+                assert_eq!(out.sum, first.sum, "{name} {strategy:?}: the {kind} kernel's image differs");
+            }
+        }
+    }
+}

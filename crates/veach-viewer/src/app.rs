@@ -58,6 +58,7 @@ pub struct Controls {
     pub resolution_scale: f32,
     pub max_spp: u32,
     pub hide_emitters: bool,
+    pub control_variate: bool,
     pub exposure: f32,
     pub view: View,
 }
@@ -116,6 +117,7 @@ impl ViewerApp {
             resolution_scale: 1.0,
             max_spp: s.spp,
             hide_emitters: s.hide_emitters,
+            control_variate: s.control_variate,
             exposure: options.exposure,
             view: View::Image,
         };
@@ -166,6 +168,7 @@ impl ViewerApp {
             seed: c.seed,
             write_aovs: c.view.needs_contributions(),
             hide_emitters: c.hide_emitters,
+            control_variate: c.control_variate,
             ..base.clone()
         }
     }
@@ -194,9 +197,10 @@ impl ViewerApp {
             LightSelection::Bsdf => "light by BSDF",
         };
         format!(
-            "{} {counts}, {selection} ({}), {} samples, seed {}",
+            "{} {counts}, {selection} ({}){}, {} samples, seed {}",
             s.strategy.name(),
             s.light_sampling.name(),
+            if s.control_variate { ", control variate" } else { "" },
             s.sampler.name(),
             s.seed
         )
@@ -387,6 +391,11 @@ impl ViewerApp {
                 ui.radio_value(&mut c.light_sampling, LightSampling::Cone, "cone (spheres)");
             });
         });
+        ui.checkbox(&mut c.control_variate, "unshadowed light as a control variate").on_hover_text(
+            "adds the light a diffuse surface would get with nothing in the way, in closed form, and \
+             samples only the difference: no noise where a light is fully visible (uniform, brdf, \
+             light, mis; lights of at most 32 triangles without emission textures)",
+        );
         ui.horizontal(|ui| {
             ui.label("samples").on_hover_text(
                 "sobol: each pixel's camera samples stratified (Owen-scrambled Sobol points); \

@@ -119,6 +119,7 @@ impl Accumulation {
                 max_binding >> 20
             )));
         }
+        crate::control_variate::check(&scene.features, scene.emitter_triangles, settings)?;
         let max_dim = device.limits().max_compute_workgroups_per_dimension;
         if w.div_ceil(WORKGROUP_SIZE.0) > max_dim {
             return Err(Error::Options(format!("width {w} exceeds this adapter's dispatch limit")));

@@ -187,6 +187,8 @@ pub struct KernelKey {
     /// A small scene's triangles, compiled into the kernel in place of the BVH (`GpuScene`
     /// decides, on CPU adapters); none in the generic kernel.
     pub baked: Option<std::sync::Arc<crate::gpu::baked_triangles::BakedTriangles>>,
+    /// The unshadowed diffuse light may be a control variate (`RenderSettings::control_variate`).
+    pub control_variate: bool,
     /// Entries of the BVH traversal's stack: `gpu::bvh_nodes::BVH_STACK_SIZE`, more for deeper
     /// trees (`GpuScene::bvh_stack`). Not a specialisation: every kernel takes its scene's.
     pub bvh_stack: u32,
@@ -213,6 +215,7 @@ impl KernelKey {
             wavefront: false,
             uniform: UniformArrays::default(),
             baked: None,
+            control_variate: true,
             bvh_stack: crate::gpu::bvh_nodes::BVH_STACK_SIZE,
         }
     }
@@ -257,6 +260,7 @@ impl KernelKey {
             wavefront: uses_wavefront(features, settings, auto),
             uniform: UniformArrays::default(),
             baked: None,
+            control_variate: settings.control_variate,
             bvh_stack: crate::gpu::bvh_nodes::BVH_STACK_SIZE,
         }
     }
@@ -287,6 +291,7 @@ impl KernelKey {
             ("POINT_LIGHT_SELECTION", flag(self.point_selection)),
             ("SINGLE_LIGHT", flag(self.single_light)),
             ("EMITTER_LIST", flag(self.baked.as_ref().is_some_and(|b| b.emitter_list()))),
+            ("CONTROL_VARIATE", flag(self.control_variate)),
         ];
         // These exist only in textures.wgsl.
         if self.textures {

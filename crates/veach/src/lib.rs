@@ -10,6 +10,7 @@ pub mod assets;
 pub mod bench;
 pub mod bench_run;
 pub mod bvh;
+pub mod control_variate;
 pub mod error;
 pub mod features;
 pub mod gpu;

@@ -172,6 +172,9 @@ pub struct RenderSettings {
     pub specialise: bool,
     /// One kernel per camera sample, or the wavefront split (shaders/wavefront.wgsl).
     pub execution: Execution,
+    /// Add the unshadowed diffuse light in closed form and estimate only the difference from it
+    /// (`crate::control_variate`, shaders/control_variate.wgsl).
+    pub control_variate: bool,
 }
 
 impl RenderSettings {
@@ -211,6 +214,7 @@ impl Default for RenderSettings {
             hide_emitters: false,
             specialise: true,
             execution: Execution::Auto,
+            control_variate: false,
         }
     }
 }
@@ -357,6 +361,8 @@ pub struct GpuScene {
     pub(crate) emitter_box: ([f32; 3], [f32; 3]),
     /// The most entries the BVH's traversal can push (`gpu::bvh_nodes::stack_bound`).
     pub(crate) bvh_stack_bound: u32,
+    /// Triangles of area lights (`emitter_tris` before any padding).
+    pub(crate) emitter_triangles: u32,
     pub stats: SceneUploadStats,
     /// What the scene needs of the kernel.
     pub features: SceneFeatures,
@@ -577,6 +583,7 @@ impl Renderer {
             Arc::new(baked)
         });
         let bvh_stack_bound = crate::gpu::bvh_nodes::stack_bound(&arrays.bvh_nodes);
+        let emitter_triangles = arrays.emitter_tris.len() as u32;
         let uniform = UniformArrays {
             bvh_nodes: pad_for_uniform(&mut arrays.bvh_nodes, capacity),
             vertices: pad_for_uniform(&mut arrays.vertices, self.uniform_capacity::<layout::Vertex>(memory)),
@@ -637,6 +644,7 @@ impl Renderer {
             emitter_bound: arrays.emitter_bound,
             emitter_box: arrays.emitter_box,
             bvh_stack_bound,
+            emitter_triangles,
             stats,
             features,
         })
@@ -743,6 +751,7 @@ impl Renderer {
             write_aovs: s.write_aovs as u32,
             hide_emitters: s.hide_emitters as u32,
             loop_check: 2,
+            control_variate: s.control_variate as u32,
             ..Default::default()
         }
     }

@@ -22,6 +22,7 @@ pub const SHADER_FILES: &[(&str, &str)] = &[
     ("bsdf.wgsl", include_str!("../../../shaders/bsdf.wgsl")),
     ("lights.wgsl", include_str!("../../../shaders/lights.wgsl")),
     ("mis.wgsl", include_str!("../../../shaders/mis.wgsl")),
+    ("control_variate.wgsl", include_str!("../../../shaders/control_variate.wgsl")),
     ("integrator.wgsl", include_str!("../../../shaders/integrator.wgsl")),
     ("wavefront.wgsl", include_str!("../../../shaders/wavefront.wgsl")),
 ];

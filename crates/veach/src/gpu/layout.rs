@@ -76,7 +76,9 @@ pub struct FrameParams {
     /// At least 2: the trip count of `loop_budget_held` (integrator.wgsl), read at run time so
     /// that the compiler cannot unroll it.
     pub loop_check: u32,
-    pub _pad4: [u32; 2],
+    /// 1: the unshadowed diffuse light is a control variate (shaders/control_variate.wgsl).
+    pub control_variate: u32,
+    pub _pad4: u32,
     /// A box around every area light's triangles (min > max: none), for emitter_reach.
     pub emitter_min: [f32; 3],
     pub _pad5: u32,
