@@ -86,6 +86,10 @@ fn a_bad_scene_is_a_clear_error_and_leaves_the_old_output_alone() {
     assert!(!o.status.success() && stderr(&o).contains("'camera'"), "{}", stderr(&o));
     let o = veach(&["render", &assets("cornell-box.gltf"), "-o", out.to_str().unwrap(), "--spp", "0"]);
     assert!(!o.status.success() && stderr(&o).contains("--spp"), "{}", stderr(&o));
+    // A setting the scene cannot take: refused before rendering, naming the scene and why.
+    let o = veach(&["render", &assets("veach-mis.gltf"), "-o", out.to_str().unwrap(), "--control-variate"]);
+    let e = stderr(&o);
+    assert!(!o.status.success() && e.contains("veach-mis.gltf: --control-variate") && e.contains("3840"), "{e}");
     assert_eq!(std::fs::read(&out).unwrap(), b"previous image");
 }
 

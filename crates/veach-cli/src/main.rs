@@ -372,8 +372,10 @@ struct BenchArgs {
     reference_spp: Option<u32>,
     /// Strategies to compare, comma-separated [default: uniform,brdf,light,mis-balance,mis-power,
     /// mis-lobes]; add -solid-angle to a light-sampling one for solid-angle sampling of
-    /// emitter triangles (e.g. light-solid-angle), then -independent for independent random
-    /// numbers instead of Sobol points (e.g. mis-power-independent, light-solid-angle-independent)
+    /// emitter triangles (e.g. light-solid-angle), -cone for round lights by their bounding cones,
+    /// or -cv to any but mis-lobes for the unshadowed light as a control variate (e.g.
+    /// mis-power-cv), then -independent for independent random numbers instead of Sobol points
+    /// (e.g. mis-power-independent, light-solid-angle-independent)
     #[arg(long, value_name = "NAMES")]
     strategies: Option<String>,
     /// Seconds of the equal-time comparison [default: mis-balance's time at the largest budget]
@@ -611,6 +613,9 @@ fn render(args: RenderArgs) -> Result<()> {
     say(format!("adapter: {}; driver: {}", gpu.describe(), gpu.driver()));
     let renderer = Renderer::new(gpu)?;
     let gpu_scene = renderer.upload_scene(&scene)?;
+    // Before any kernel is built, and naming the scene.
+    veach::control_variate::check(&gpu_scene.features, gpu_scene.emitter_triangles(), &settings)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.scene.display()))?;
     say(format!(
         "scene features: {}; kernel: {}{}",
         gpu_scene.features.describe(),

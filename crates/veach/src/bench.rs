@@ -33,6 +33,8 @@ pub struct BenchStrategy {
     pub light_selection: LightSelection,
     pub light_sampling: LightSampling,
     pub sampler: Sampler,
+    /// The unshadowed diffuse light as a control variate (`RenderSettings::control_variate`).
+    pub control_variate: bool,
 }
 
 /// The strategies `veach bench` runs unless told otherwise.
@@ -46,10 +48,16 @@ pub fn default_strategies() -> Vec<BenchStrategy> {
 
 /// Every strategy `--strategies` can name: the defaults, the light-sampling ones again with
 /// solid-angle sampling of emitter triangles (suffix `-solid-angle`) and with round lights sampled
-/// by their bounding cones (suffix `-cone`), and each of those with
-/// independent random numbers instead of Sobol points (suffix `-independent`).
+/// by their bounding cones (suffix `-cone`), the defaults but mis-lobes with the unshadowed light
+/// as a control variate (suffix `-cv`), and each of those with independent random numbers instead
+/// of Sobol points (suffix `-independent`).
 pub fn strategy_catalogue() -> Vec<BenchStrategy> {
     let mut all = area_strategies();
+    let controlled: Vec<BenchStrategy> = all
+        .iter()
+        .filter(|s| s.strategy != Strategy::MisLobes)
+        .map(|s| BenchStrategy { name: format!("{}-cv", s.name), control_variate: true, ..s.clone() })
+        .collect();
     let by = |suffix: &str, light_sampling: LightSampling, all: &[BenchStrategy]| -> Vec<BenchStrategy> {
         all.iter()
             .filter(|s| s.strategy.samples_lights())
@@ -60,6 +68,7 @@ pub fn strategy_catalogue() -> Vec<BenchStrategy> {
     let cone = by("cone", LightSampling::Cone, &all);
     all.extend(solid);
     all.extend(cone);
+    all.extend(controlled);
     let independent: Vec<BenchStrategy> = all
         .iter()
         .map(|s| BenchStrategy { name: format!("{}-independent", s.name), sampler: Sampler::Independent, ..s.clone() })
@@ -94,6 +103,7 @@ fn area_strategies() -> Vec<BenchStrategy> {
         light_selection: LightSelection::Power,
         light_sampling: LightSampling::Area,
         sampler: Sampler::Sobol,
+        control_variate: false,
     };
     vec![
         s("uniform", Strategy::Uniform, 0, 2, Heuristic::Balance),
@@ -276,6 +286,7 @@ pub fn render_settings(s: &BenchStrategy, width: u32, height: u32, budget: &Budg
         light_selection: s.light_selection,
         light_sampling: s.light_sampling,
         sampler: s.sampler,
+        control_variate: s.control_variate,
         seed,
         time_limit,
         // Short dispatches keep a time budget from overshooting.
@@ -422,6 +433,18 @@ pub fn time_to_reach(curve: &Curve, target: f64) -> Option<(f64, bool)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn strategy_names_compose_their_suffixes() {
+        let s = strategies_by_name("mis-power-cv, light-solid-angle-independent, brdf-cv-independent").unwrap();
+        assert!(s[0].control_variate && s[0].strategy == Strategy::Mis && s[0].heuristic == Heuristic::Power);
+        assert!(!s[1].control_variate && s[1].light_sampling == LightSampling::SolidAngle);
+        assert_eq!(s[1].sampler, Sampler::Independent);
+        assert!(s[2].control_variate && s[2].sampler == Sampler::Independent);
+        // mis-lobes does not take the control variate (crate::control_variate::check).
+        let unknown = strategies_by_name("mis-lobes-cv").unwrap_err();
+        assert!(unknown.contains("unknown bench strategy 'mis-lobes-cv'"), "{unknown}");
+    }
 
     #[test]
     fn metrics_follow_their_definitions() {

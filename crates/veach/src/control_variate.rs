@@ -36,8 +36,8 @@ pub fn check(features: &SceneFeatures, emitter_triangles: u32, settings: &Render
     }
     if emitter_triangles > MAX_CONTROL_VARIATE_TRIANGLES {
         return refuse(format!(
-            "integrates each emitter triangle at every shading point, at most \
-             {MAX_CONTROL_VARIATE_TRIANGLES}; this scene has {emitter_triangles}"
+            "integrates every emitter triangle at each shading point, so it takes scenes of at most \
+             {MAX_CONTROL_VARIATE_TRIANGLES}; this one has {emitter_triangles}"
         ));
     }
     Ok(())

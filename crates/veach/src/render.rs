@@ -375,6 +375,11 @@ impl GpuScene {
         self.baked.as_ref().map_or(0, |b| b.len())
     }
 
+    /// Triangles of area lights.
+    pub fn emitter_triangles(&self) -> u32 {
+        self.emitter_triangles
+    }
+
     /// The most entries the BVH's traversal can push on its stack.
     pub fn bvh_stack_bound(&self) -> u32 {
         self.bvh_stack_bound

@@ -50,6 +50,8 @@ pub struct SettingsReport {
     pub heuristic: String,
     pub light_selection: String,
     pub light_sampling: String,
+    /// The unshadowed diffuse light as a control variate (`--control-variate`).
+    pub control_variate: bool,
     pub sampler: String,
     pub seed: u32,
     pub camera: String,
@@ -119,6 +121,7 @@ pub fn render_stats(
             heuristic: format!("{:?}", settings.heuristic).to_lowercase(),
             light_selection: format!("{:?}", settings.light_selection).to_lowercase(),
             light_sampling: settings.light_sampling.name().into(),
+            control_variate: settings.control_variate,
             sampler: settings.sampler.name().into(),
             seed: settings.seed,
             camera: camera_name.into(),
