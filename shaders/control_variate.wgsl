@@ -3,18 +3,17 @@
 // At a shading point the estimate of  ∫ f L_e V |cos θ| dω  (V: nothing blocks the light) becomes
 //   F = A + MC[ f L_e V cos θ − g ],   g(ω) = k L_e(ω) cos θ,   A = ∫ g dω  in closed form,
 // with k the diffuse lobe's f (its albedo over π) and the same light samples, direction samples
-// and MIS weights as without it: the control variate in its unbiased, additive form (Kalos &
-// Whitlock, "Monte Carlo Methods", §4.3; Veach 1997 thesis §2.5.2; for direct light: Heitz, Hill &
-// McGuire, "Combining Analytic Direct Illumination and Stochastic Shadows", I3D 2018, whose ratio
-// form is biased). E[MC of f L_e V cos − g] = ∫ f L_e V cos − A, so F is unbiased whatever k is;
+// and MIS weights as without it: the control variate in its unbiased, additive form (Hammersley &
+// Handscomb, "Monte Carlo Methods", 1964; for direct light: Heitz, Hill & McGuire, "Combining
+// Analytic Direct Illumination and Stochastic Shadows", I3D 2018, whose ratio form is biased). E[MC of f L_e V cos − g] = ∫ f L_e V cos − A, so F is unbiased whatever k is;
 // where a Lambertian surface sees a light unblocked every sample's f L_e V cos − g is zero, so the
 // estimate there has no variance, and only penumbrae and umbrae keep theirs.
 //
-// g is evaluated per emitter triangle, other emitters and blockers ignored: a light sample's g is
-// at its own point, and a direction sample's is the sum over the emitter triangles its ray crosses
-// (control_variate_direction_term). A sums, per triangle (or parallelogram) of constant radiance,
-// Lambert's formula for its projected solid angle clipped to the hemisphere above the shading
-// normal (emitter_projected_solid_angle). Where a shading normal leans off the geometric one, g
+// g is evaluated per emitter polygon (emitter_polygon: a parallelogram light as one, else each
+// triangle), other emitters and blockers ignored: a light sample's g is at its own point, and a
+// direction sample's is the sum over the polygons its ray crosses (control_variate_direction_term).
+// A sums, per polygon of constant radiance, Lambert's formula for its projected solid angle
+// clipped to the hemisphere above the shading normal (polygon_projected_solid_angle). Where a shading normal leans off the geometric one, g
 // stays non-zero below the geometric normal's plane, where f L_e V cos is zero: the samples that
 // land there carry −g (trace_light_sample, and direction samples whether valid or not).
 // The host allows it only where that holds: area lights without emission textures, a bounded
