@@ -311,3 +311,11 @@ fn scale_writes_a_well_formed_csv() {
         assert_eq!((r[0], r[1], r[2]), ("lights", "18", lights), "{r:?}");
     }
 }
+
+#[test]
+fn info_says_whether_a_scene_takes_the_control_variate() {
+    let stdout = |scene: &str| String::from_utf8(veach(&["info", &assets(scene)]).stdout).unwrap();
+    assert!(stdout("cornell-box.gltf").contains("control variate: takes --control-variate"));
+    let veach_scene = stdout("veach-mis.gltf");
+    assert!(veach_scene.contains("control variate: no (") && veach_scene.contains("3840"), "{veach_scene}");
+}

@@ -931,7 +931,15 @@ fn info(path: &Path) -> Result<()> {
             println!("    {}: {}x{}, {wrap}, {filter}", t.name, t.width, t.height);
         }
     }
-    println!("  features: {}", veach::features::SceneFeatures::detect(&scene).describe());
+    let features = veach::features::SceneFeatures::detect(&scene);
+    println!("  features: {}", features.describe());
+    // Whether MIS renders of it may take --control-variate (the check `veach render` makes).
+    let controlled = RenderSettings { control_variate: true, ..RenderSettings::mis_power() };
+    let emitters = scene.emissive_triangle_count() as u32;
+    match veach::control_variate::check(&features, emitters, &controlled) {
+        Ok(()) => println!("  control variate: takes --control-variate"),
+        Err(e) => println!("  control variate: no ({e})"),
+    }
     println!("  cameras: {}", scene.cameras.len());
     for c in &scene.cameras {
         println!("    '{}' at {:?}, yfov {:.1}°", c.name, c.position.to_array(), c.yfov.to_degrees());
