@@ -2,11 +2,12 @@
 //! (`RenderSettings::control_variate`, `shaders/control_variate.wgsl`).
 //!
 //! The kernel adds A, the light a Lambertian lobe would receive with nothing in the way, in closed
-//! form (Lambert's formula per emitter triangle), and estimates only f L_e V cos − k L_e cos with the
+//! form (Lambert's formula per emitter triangle, or per parallelogram light), and estimates only f L_e V cos − k L_e cos with the
 //! strategy's own samples: unbiased, and without variance wherever a diffuse surface sees a light
 //! unblocked. A is exact only for lights of constant radiance, and it costs a loop over every
-//! emitter triangle at each shading point and direction sample, so the renders that may take it are
-//! checked here, before a kernel is built.
+//! emitter polygon at each shading point and direction sample, so the renders that may take it are
+//! checked here: by `Accumulation::new` for every render, and by `veach render` and `veach info`
+//! first, to name the scene.
 
 use crate::error::{Error, Result};
 use crate::features::{SceneFeatures, effective_strategy};
