@@ -1,6 +1,7 @@
-//! Host-side BVH: obvhs builds a BVH2 (PLOC, then reinsertion optimisation and leaf collapsing,
-//! both driven by the surface-area heuristic), which we flatten into nodes (encoded for the GPU
-//! in `gpu::bvh_nodes`) and a triangle order in which every leaf's triangles are contiguous.
+//! Host-side BVH: obvhs builds a BVH2 on every core (PLOC, then reinsertion optimisation and leaf
+//! collapsing, both driven by the surface-area heuristic), which we flatten into nodes (encoded
+//! for the GPU in `gpu::bvh_nodes`) and a triangle order in which every leaf's triangles are
+//! contiguous.
 
 use crate::scene::Triangle;
 use glam::Vec3A;
@@ -168,6 +169,20 @@ mod tests {
                     assert!(c.min[k] >= n.min[k] && c.max[k] <= n.max[k]);
                 }
             }
+        }
+    }
+
+    /// obvhs builds in parallel (its `parallel` feature, rayon): the tree must not depend on how
+    /// the threads were scheduled, or the same scene would render differently from run to run.
+    /// 40,000 triangles, so that the parallel paths split their work into many chunks.
+    #[test]
+    fn the_parallel_build_gives_the_same_tree_every_time() {
+        let tris = grid(200);
+        let first = build_bvh(&tris);
+        for _ in 0..3 {
+            let again = build_bvh(&tris);
+            assert_eq!(again.nodes, first.nodes);
+            assert_eq!(again.order, first.order);
         }
     }
 }
