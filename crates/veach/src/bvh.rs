@@ -29,11 +29,6 @@ pub struct Bvh {
     pub sah_cost: f32,
 }
 
-/// obvhs's medium preset with leaves collapsed at a node cost of 2 triangle tests instead of 3:
-/// smaller leaves. Measured with Mesa 25's lavapipe, 256×256, 32 spp, medians of 3: Cornell box
-/// 0.90-0.92× the render time (light, mis, mis-lobes), Veach scene 0.96-0.99×, textured scene
-/// within the spread (Mesa 22.3: 0.93-0.98×); 7 more bytes per triangle (49 at 1M triangles)
-/// (docs/performance.md, "Smaller BVH leaves").
 impl Bvh {
     /// Nodes the kernels read: the wide nodes collapsed from this tree, each holding its
     /// children's boxes (`gpu::bvh_nodes`).
@@ -42,6 +37,11 @@ impl Bvh {
     }
 }
 
+/// obvhs's medium preset with leaves collapsed at a node cost of 2 triangle tests instead of 3:
+/// smaller leaves. Measured with Mesa 25's lavapipe, 256×256, 32 spp, medians of 3: Cornell box
+/// 0.90-0.92× the render time (light, mis, mis-lobes), Veach scene 0.96-0.99×, textured scene
+/// within the spread (Mesa 22.3: 0.93-0.98×); 7 more bytes per triangle (49 at 1M triangles)
+/// (docs/performance.md, "Smaller BVH leaves").
 fn build_params() -> BvhBuildParams {
     BvhBuildParams { collapse_traversal_cost: 2.0, ..BvhBuildParams::medium_build() }
 }
