@@ -556,7 +556,12 @@ fn estimate_radiance(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<fu
     var cone_sum = vec3f(0.0);
     loop {
         *rays += 1u;
-        let hit = trace_closest(origin, d.wi, t_max);
+        var hit: Hit;
+        if CAMERA_LIST && at_camera && frame.camera_list != 0u {
+            hit = trace_camera(d.wi);
+        } else {
+            hit = trace_closest(origin, d.wi, t_max);
+        }
         if hit.found {
             let s = surface_at(hit, d.wi);
             if at_camera {

@@ -66,8 +66,17 @@ fn ray_shear(dir: vec3f) -> RayShear {
     return RayShear(kx, ky, kz, s);
 }
 
-// Returns (t, b1, b2) on a hit with t in (0, t_max), otherwise t = -1.
-fn intersect_triangle(origin: vec3f, sh: RayShear, p0: vec3f, p1: vec3f, p2: vec3f, t_max: f32) -> vec3f {
+// The watertight test's edge functions in the ray's sheared frame (u, v, w: the weights of p0, p1
+// and p2, unnormalised), the corners' scaled z, and the distance scaled by u + v + w.
+struct ShearedTriangle {
+    u: f32,
+    v: f32,
+    w: f32,
+    z: vec3f,
+    t_scaled: f32,
+}
+
+fn sheared_triangle(origin: vec3f, sh: RayShear, p0: vec3f, p1: vec3f, p2: vec3f) -> ShearedTriangle {
     let a = p0 - origin;
     let b = p1 - origin;
     let c = p2 - origin;
@@ -75,9 +84,6 @@ fn intersect_triangle(origin: vec3f, sh: RayShear, p0: vec3f, p1: vec3f, p2: vec
     let az = component(a, sh.kz);
     let bz = component(b, sh.kz);
     let cz = component(c, sh.kz);
-    let az_scaled = sh.s.z * az;
-    let bz_scaled = sh.s.z * bz;
-    let cz_scaled = sh.s.z * cz;
     let ax = component(a, sh.kx) - sh.s.x * az;
     let ay = component(a, sh.ky) - sh.s.y * az;
     let bx = component(b, sh.kx) - sh.s.x * bz;
@@ -87,21 +93,45 @@ fn intersect_triangle(origin: vec3f, sh: RayShear, p0: vec3f, p1: vec3f, p2: vec
     let u = cx * by - cy * bx;
     let v = ax * cy - ay * cx;
     let w = bx * ay - by * ax;
+    let z = sh.s.z * vec3f(az, bz, cz);
+    return ShearedTriangle(u, v, w, z, u * z.x + v * z.y + w * z.z);
+}
+
+// Returns (t, b1, b2) on a hit with t in (0, t_max), otherwise t = -1.
+fn intersect_triangle(origin: vec3f, sh: RayShear, p0: vec3f, p1: vec3f, p2: vec3f, t_max: f32) -> vec3f {
+    let e = sheared_triangle(origin, sh, p0, p1, p2);
     // Edge functions exactly zero: recompute in double precision, as the paper prescribes.
     // WGSL has no portable f64, so we fall back to treating the edge as inside; the
     // consistent sign test below still makes shared edges watertight. Outside: signs differ.
-    let outside = (u < 0.0 || v < 0.0 || w < 0.0) && (u > 0.0 || v > 0.0 || w > 0.0);
-    let det = u + v + w;
-    let t_scaled = u * az_scaled + v * bz_scaled + w * cz_scaled;
+    let outside = (e.u < 0.0 || e.v < 0.0 || e.w < 0.0) && (e.u > 0.0 || e.v > 0.0 || e.w > 0.0);
+    let det = e.u + e.v + e.w;
     // The paper compares t_scaled with t_max * det, sign-aware, to divide only for hits; without
     // branches the division runs anyway, and testing t itself is 8 instructions fewer (Cornell box
     // 0.94x on lavapipe). det = 0 gives t = inf or NaN, which fails the range test.
     let inv_det = 1.0 / det;
-    let t = t_scaled * inv_det;
+    let t = e.t_scaled * inv_det;
     let in_front = t > 0.0 && t < t_max;
     // Tests and selects, no branches: a branch per test costs lavapipe's 8 lanes a mask check each,
     // which made the baked triangles (traverse_baked.wgsl) 1.45x slower; neutral in BVH leaves.
-    return select(vec3f(-1.0, 0.0, 0.0), vec3f(t, v * inv_det, w * inv_det), !outside && in_front);
+    return select(vec3f(-1.0, 0.0, 0.0), vec3f(t, e.v * inv_det, e.w * inv_det), !outside && in_front);
+}
+
+// (t, b1, b2) of the point of the triangle's plane nearest the ray's crossing inside the triangle,
+// for a ray known to meet it (traverse_baked.wgsl's camera list): intersect_triangle's values bit
+// for bit where that test finds the ray inside (the signs flipped to det's are exact negations),
+// and where rounding puts the ray just outside (within rounding of an edge) the edge functions
+// clamped to zero, a point on that edge. t = -1 where all three clamp away.
+fn intersect_triangle_clamped(origin: vec3f, sh: RayShear, p0: vec3f, p1: vec3f, p2: vec3f) -> vec3f {
+    let e = sheared_triangle(origin, sh, p0, p1, p2);
+    let s = select(1.0, -1.0, e.u + e.v + e.w < 0.0);
+    let u = max(s * e.u, 0.0);
+    let v = max(s * e.v, 0.0);
+    let w = max(s * e.w, 0.0);
+    let det = u + v + w;
+    let inv_det = 1.0 / det;
+    let clamped = s * e.u < 0.0 || s * e.v < 0.0 || s * e.w < 0.0;
+    let t_scaled = select(s * e.t_scaled, u * e.z.x + v * e.z.y + w * e.z.z, clamped);
+    return select(vec3f(-1.0, 0.0, 0.0), vec3f(t_scaled * inv_det, v * inv_det, w * inv_det), det > 0.0);
 }
 
 // Slab test; returns the entry distance or RAY_INF on a miss. The exit distance is scaled by

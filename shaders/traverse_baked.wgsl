@@ -19,6 +19,41 @@ fn trace_closest(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
     return with_barycentrics(hit, origin, sh);
 }
 
+// The closest hit of a camera ray, where CAMERA_LIST and frame.camera_list say the camera's eye o
+// is the one the list was built for. With a = p0 - o, b = p1 - o, c = p2 - o, the ray o + t d
+// crosses the triangle where the signed volumes u = d · (b × c), v = d · (c × a), w = d · (a × b)
+// share a sign, at t = a · (b × c) / (u + v + w): Plücker's edge test with the edges' moments taken
+// about the eye, where each becomes a plane through it (Jones, "Intersecting a Ray and a Triangle
+// with Plücker Coordinates", Ray Tracing News 13(1), 2000). The host computes the three normals
+// and the volume once per triangle, oriented so that inside means all three >= 0
+// (BakedTriangles::set_camera_eye): per triangle three dot products and a division, where the
+// watertight test shears all three corners per ray. A shared edge's two planes are exact negatives
+// of each other, so the list is as watertight as that test. The winner's t and barycentrics are
+// then the watertight test's (intersect_triangle_clamped): the BVH's hit bit for bit wherever the
+// two tests pick the same triangle, which they may not for a ray within rounding of an edge or of
+// two surfaces at the same distance.
+fn trace_camera(dir: vec3f) -> Hit {
+    let origin = frame.camera.origin;
+    var hit = Hit(RAY_INF, 0.0, 0.0, 0u, false);
+    let inv_dir = safe_inverse(dir);
+    {baked camera: camera_candidate(&hit, dir, n0, n1, n2, volume, triangle); | intersect_aabb(origin, inv_dir, lo, hi, hit.t) < RAY_INF}
+    let v = triangle_corners(hit.tri);
+    let r = intersect_triangle_clamped(origin, ray_shear(dir), v.p0, v.p1, v.p2);
+    return Hit(select(hit.t, r.x, r.x > 0.0), r.y, r.z, hit.tri, hit.found);
+}
+
+// Triangle `triangle` is the camera ray's new closest hit if it lies inside the three edge planes
+// n0, n1, n2 (through the eye) before the closest so far. volume / (u + v + w) is +inf where all
+// three are zero (a ray along the triangle's plane), which is no hit.
+fn camera_candidate(hit: ptr<function, Hit>, dir: vec3f, n0: vec3f, n1: vec3f, n2: vec3f, volume: f32, triangle: u32) {
+    let u = dot(dir, n0);
+    let v = dot(dir, n1);
+    let w = dot(dir, n2);
+    let t = volume / (u + v + w);
+    let nearer = min(min(u, v), w) >= 0.0 && t < (*hit).t;
+    *hit = Hit(select((*hit).t, t, nearer), 0.0, 0.0, select((*hit).tri, triangle, nearer), (*hit).found || nearer);
+}
+
 // The closest hit along origin + t * dir, t in (0, t_max), among the emitting triangles alone: what
 // a direction sample meets where EMITTER_LIST (features.wgsl) says so; the list is empty otherwise.
 // Behind boxes like the other lists.

@@ -8,6 +8,11 @@ fn trace_emitters(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
     return Hit(t_max, 0.0, 0.0, 0u, false);
 }
 
+// Nor do they have a camera list: CAMERA_LIST is false for them, and this is never called.
+fn trace_camera(dir: vec3f) -> Hit {
+    return Hit(RAY_INF, 0.0, 0.0, 0u, false);
+}
+
 const BVH_STACK_SIZE: u32 = 96u;
 
 // The traversal stack's entries below the top WINDOW (TraversalStack), shared by both traversals

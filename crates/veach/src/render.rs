@@ -585,6 +585,9 @@ impl Renderer {
                 .collect();
             baked.mark_blockers(&arrays.triangle_lights, (!directional).then_some(&delta[..]));
             baked.set_emitter_list(branches);
+            // Camera rays from the scene's first camera (a render from another, or the viewer's
+            // once it moves, takes the closest-hit list: `frame.camera_list`).
+            baked.set_camera_eye(branches.then(|| scene.camera(None).ok().map(|c| c.position)).flatten());
             Arc::new(baked)
         });
         let bvh_stack_bound = crate::gpu::bvh_nodes::stack_bound(&arrays.bvh_nodes);
@@ -757,6 +760,11 @@ impl Renderer {
             hide_emitters: s.hide_emitters as u32,
             loop_check: 2,
             control_variate: s.control_variate as u32,
+            camera_list: scene
+                .baked
+                .as_ref()
+                .is_some_and(|b| b.camera_eye() == Some(camera.position.to_array().map(f32::to_bits)))
+                as u32,
             ..Default::default()
         }
     }

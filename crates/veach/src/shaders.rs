@@ -109,7 +109,9 @@ pub fn render_kernel_source(
 /// traverse_baked.wgsl with each `{baked STATEMENT | BOX_TEST}` line written out once per triangle,
 /// each `{baked blockers: STATEMENT | BOX_TEST}` line once per triangle that can block a shadow
 /// ray, and each `{baked emitters: STATEMENT | BOX_TEST}` line once per emitting triangle where
-/// direction samples search them (`BakedTriangles::emitter_list`); BOX_TEST (naming the box's corners lo and hi) guards each group of nearby triangles
+/// direction samples search them (`BakedTriangles::emitter_list`), each `{baked camera: STATEMENT |
+/// BOX_TEST}` line once per triangle with edge planes through the camera's eye (n0, n1, n2 and
+/// volume, `BakedTriangles::set_camera_eye`); BOX_TEST (naming the box's corners lo and hi) guards each group of nearby triangles
 /// (`BakedTriangles::expand`).
 fn bake_triangles(template: &str, triangles: &BakedTriangles) -> String {
     let mut out = String::new();
@@ -122,6 +124,8 @@ fn bake_triangles(template: &str, triangles: &BakedTriangles) -> String {
                     (s, BakedList::Blockers)
                 } else if let Some(s) = statement.strip_prefix("emitters: ") {
                     (s, BakedList::Emitters)
+                } else if let Some(s) = statement.strip_prefix("camera: ") {
+                    (s, BakedList::Camera)
                 } else {
                     (statement, BakedList::All)
                 };

@@ -31,6 +31,9 @@ pub enum BakedList {
     /// The emitting ones (`mark_blockers`), where direction samples search them (`emitter_list`;
     /// none otherwise).
     Emitters,
+    /// Those a camera ray from the eye of `set_camera_eye` can meet, with their edge planes through
+    /// it (none without an eye).
+    Camera,
 }
 
 /// Triangles tested one after the other, or with `boxed` only where the ray meets their bounding
@@ -59,6 +62,11 @@ pub struct BakedTriangles {
     emitter_list: bool,
     /// The triangles in order, in runs tested alone or behind their box.
     groups: Vec<BakedGroup>,
+    /// The eye camera rays start from where they test `camera_planes` (`set_camera_eye`).
+    camera_eye: Option<[u32; 3]>,
+    /// Per triangle, for camera rays from `camera_eye`: the three edge planes through the eye and
+    /// the volume (`camera_planes`), or None for one no camera ray can meet.
+    camera_planes: Vec<Option<[[u32; 3]; 4]>>,
 }
 
 /// The counts only: `--stats` prints the kernel key.
@@ -70,6 +78,10 @@ impl std::fmt::Debug for BakedTriangles {
         if self.emitter_list {
             let emitters = self.emitters.iter().filter(|&&e| e).count();
             write!(f, ", direction samples by the list of {emitters} emitters")?;
+        }
+        if self.camera_eye.is_some() {
+            let planes = self.camera_planes.iter().filter(|p| p.is_some()).count();
+            write!(f, ", camera rays by the edge planes of {planes} triangles")?;
         }
         Ok(())
     }
@@ -110,7 +122,16 @@ impl BakedTriangles {
         if !listed.iter().copied().eq(0..corners.len()) {
             groups = vec![BakedGroup { triangles: (0..corners.len()).collect(), boxed: false }];
         }
-        Some(BakedTriangles { corners, blockers, emitters, emitter_list: false, groups })
+        let camera_planes = vec![None; corners.len()];
+        Some(BakedTriangles {
+            corners,
+            blockers,
+            emitters,
+            emitter_list: false,
+            groups,
+            camera_eye: None,
+            camera_planes,
+        })
     }
 
     /// Leaves out of the shadow rays' tests the triangles that no shadow ray can meet before its
@@ -139,6 +160,24 @@ impl BakedTriangles {
 
     pub fn emitter_list(&self) -> bool {
         self.emitter_list
+    }
+
+    /// Camera rays from `eye` (None: none) test the triangles by their edge planes through it
+    /// (`trace_camera` in traverse_baked.wgsl): per triangle three dot products and a division
+    /// where the watertight test shears its corners per ray. Like `emitter_list`, for drivers that
+    /// branch around code no lane runs: Mesa 22.3 would run the closest-hit list beside it.
+    pub fn set_camera_eye(&mut self, eye: Option<Vec3>) {
+        self.camera_eye = eye.map(|e| e.to_array().map(f32::to_bits));
+        self.camera_planes = self
+            .corners
+            .iter()
+            .map(|c| eye.and_then(|e| camera_planes(e, c.map(|bits| bits.map(f32::from_bits)))))
+            .collect();
+    }
+
+    /// The eye of `set_camera_eye`, as f32 bits.
+    pub fn camera_eye(&self) -> Option<[u32; 3]> {
+        self.camera_eye
     }
 
     /// Triangles that shadow rays test.
@@ -174,6 +213,7 @@ impl BakedTriangles {
                     BakedList::All => true,
                     BakedList::Blockers => self.blockers[i],
                     BakedList::Emitters => self.emitter_list && self.emitters[i],
+                    BakedList::Camera => self.camera_planes[i].is_some(),
                 })
                 .collect();
             let (open, inner) = if group.boxed && kept.len() >= GROUP_MIN_TRIANGLES {
@@ -204,6 +244,12 @@ impl BakedTriangles {
         for (name, bits) in ["p0", "p1", "p2"].iter().zip(&self.corners[i]) {
             line = replace_word(&line, name, &wgsl_vec3(*bits));
         }
+        if let Some([n0, n1, n2, volume]) = self.camera_planes[i] {
+            for (name, bits) in [("n0", n0), ("n1", n1), ("n2", n2)] {
+                line = replace_word(&line, name, &wgsl_vec3(bits));
+            }
+            line = replace_word(&line, "volume", &wgsl_f32(volume[0]));
+        }
         replace_word(&line, "triangle", &format!("{i}u"))
     }
 
@@ -221,6 +267,36 @@ impl BakedTriangles {
         }
         (lo.map(f32::to_bits), hi.map(f32::to_bits))
     }
+}
+
+/// For camera rays from `eye`, triangle p0 p1 p2's edge planes through the eye and its volume:
+/// with a = p0 - eye, b = p1 - eye, c = p2 - eye, the normals b × c, c × a, a × b (each ray's dot
+/// products with them are the weights of p0, p1, p2) and a · (b × c), computed in f64 from the f32
+/// corners, negated together where the volume is negative (so that inside means all three dot
+/// products >= 0 and t > 0), and scaled together by a power of two, which changes no ratio, to
+/// keep them in f32's range. [n0, n1, n2, [volume, 0, 0]] as f32 bits; None where the volume is
+/// zero or not finite (the eye in the triangle's plane, or a degenerate triangle: the watertight
+/// test finds no camera ray crossing it either). A shared edge's two planes are exact negatives
+/// of each other times a power of two: the products are the same, their difference is reversed,
+/// and negation and power-of-two scales round exactly.
+fn camera_planes(eye: Vec3, corners: [[f32; 3]; 3]) -> Option<[[u32; 3]; 4]> {
+    let e = eye.as_dvec3();
+    let [a, b, c] = corners.map(|p| glam::DVec3::from_array(p.map(f64::from)) - e);
+    let (mut n0, mut n1, mut n2) = (b.cross(c), c.cross(a), a.cross(b));
+    let mut volume = a.dot(n0);
+    if volume == 0.0 || !volume.is_finite() {
+        return None;
+    }
+    if volume < 0.0 {
+        (n0, n1, n2, volume) = (-n0, -n1, -n2, -volume);
+    }
+    let largest = [n0.abs().max_element(), n1.abs().max_element(), n2.abs().max_element(), volume]
+        .into_iter()
+        .fold(0.0, f64::max);
+    let scale = 2f64.powi(-(largest.log2().floor() as i32));
+    let bits = |v: glam::DVec3| (v * scale).to_array().map(|x| (x as f32).to_bits());
+    let volume = (volume * scale) as f32;
+    (volume > 0.0 && volume.is_finite()).then(|| [bits(n0), bits(n1), bits(n2), [volume.to_bits(), 0, 0]])
 }
 
 fn surface_area(node: &BvhNode) -> f32 {
@@ -391,6 +467,75 @@ mod tests {
         let baked = BakedTriangles::new(&vertices, &triangles, &short).unwrap();
         assert_eq!(baked.boxed_groups(), 0);
         assert_eq!(baked.expand("f(triangle);", "box(lo, hi)", "", BakedList::All).lines().count(), 8);
+    }
+
+    fn planes_of(eye: Vec3, corners: [[f32; 3]; 3]) -> Option<([Vec3; 3], f32)> {
+        camera_planes(eye, corners).map(|[n0, n1, n2, v]| {
+            ([n0, n1, n2].map(|n| Vec3::from_array(n.map(f32::from_bits))), f32::from_bits(v[0]))
+        })
+    }
+
+    #[test]
+    fn camera_planes_find_the_distance_and_face_the_same_way_for_either_winding() {
+        let eye = Vec3::new(0.5, -1.0, 3.0);
+        let corners = [[0.0, 0.0, -2.0], [4.0, 0.0, -2.0], [0.0, 3.0, -2.0]];
+        let centroid = Vec3::new(4.0 / 3.0, 1.0, -2.0);
+        let dir = (centroid - eye).normalize();
+        for corners in [corners, [corners[0], corners[2], corners[1]]] {
+            let (n, volume) = planes_of(eye, corners).unwrap();
+            let [u, v, w] = n.map(|n| dir.dot(n));
+            assert!(u > 0.0 && v > 0.0 && w > 0.0 && volume > 0.0, "inside means all >= 0: {u} {v} {w}");
+            let t = volume / (u + v + w);
+            assert!((t - (centroid - eye).length()).abs() < 1e-5, "t = {t}");
+            // The weights are the barycentrics of p0, p1, p2 (here each 1/3).
+            for b in [u, v, w] {
+                assert!((b / (u + v + w) - 1.0 / 3.0).abs() < 1e-5);
+            }
+            // A ray past an edge: one weight negative.
+            let outside = (Vec3::new(-1.0, 1.0, -2.0) - eye).normalize();
+            assert!(n.iter().any(|&n| outside.dot(n) < 0.0));
+        }
+    }
+
+    #[test]
+    fn a_shared_edges_two_camera_planes_are_exact_negatives_up_to_a_power_of_two() {
+        // A quad split along p1-p2, the halves far apart in size so that their scales differ.
+        let eye = Vec3::new(0.3, 0.2, 5.0);
+        let (p1, p2) = ([10.0, 0.0, 0.0], [0.0, 10.0, 0.5]);
+        let small = planes_of(eye, [[0.0, 0.0, 0.0], p1, p2]).unwrap().0;
+        let large = planes_of(eye, [[1000.0, 1000.0, 0.0], p2, p1]).unwrap().0;
+        // The edge p1-p2 is opposite corner 0 in both: plane n0.
+        let ratio = -large[0] / small[0];
+        assert!(ratio.x > 0.0 && ratio.x.log2().fract() == 0.0, "{ratio}");
+        assert_eq!(ratio, Vec3::splat(ratio.x), "{small:?} {large:?}");
+    }
+
+    #[test]
+    fn triangles_no_camera_ray_can_meet_have_no_camera_planes() {
+        let eye = Vec3::new(0.0, 0.0, 1.0);
+        assert!(planes_of(eye, [[0.0, 0.0, 1.0], [1.0, 0.0, 1.0], [0.0, 1.0, 1.0]]).is_none(), "eye in its plane");
+        assert!(planes_of(eye, [[0.0, 0.0, 0.0], [1.0, 1.0, 0.0], [2.0, 2.0, 0.0]]).is_none(), "degenerate");
+        // Far from the origin the planes stay finite.
+        let far = planes_of(Vec3::splat(3.0e37), [[-3.0e38, 0.0, 0.0], [0.0, -3.0e38, 0.0], [0.0, 0.0, -3.0e38]]);
+        let (n, volume) = far.unwrap();
+        assert!(volume.is_finite() && volume > 0.0 && n.iter().all(|n| n.is_finite()));
+    }
+
+    #[test]
+    fn the_camera_list_holds_the_triangles_with_planes_once_an_eye_is_set() {
+        let vertices = [vertex([0.0, 0.0, 0.0]), vertex([1.0, 0.0, 0.0]), vertex([0.0, 1.0, 0.0])];
+        let t = IndexedTriangle { v0: 0, v1: 1, v2: 2, material: 0 };
+        let mut baked = BakedTriangles::new(&vertices, &[t; 2], &[]).unwrap();
+        let template = "f(n0, volume, triangle);";
+        assert_eq!(baked.expand(template, "box(lo, hi)", "", BakedList::Camera), "", "no eye, no list");
+        baked.set_camera_eye(Some(Vec3::new(0.0, 0.0, 2.0)));
+        let text = baked.expand(template, "box(lo, hi)", "", BakedList::Camera);
+        assert_eq!(text.lines().count(), 2);
+        assert!(text.starts_with("f(vec3f(") && text.ends_with(", 1u);"), "{text}");
+        assert!(format!("{baked:?}").ends_with("camera rays by the edge planes of 2 triangles"), "{baked:?}");
+        baked.set_camera_eye(Some(Vec3::new(0.5, 0.5, 0.0)));
+        assert_eq!(baked.expand(template, "box(lo, hi)", "", BakedList::Camera), "", "the eye in their plane");
+        assert!(baked.camera_eye().is_some());
     }
 
     #[test]
