@@ -38,6 +38,10 @@ const TEST_TEXTURED_MATERIAL: u32 = 31u;
 // test_in[2i] = (origin, t_max), test_in[2i + 1] = (direction, 0): out[i] = (closest hit's t or -1,
 // 1 if the segment is blocked, 0, 0), from the kernel's own traversal (trace_closest, trace_occluded).
 const TEST_TRACE: u32 = 40u;
+// test_in[i] = (direction, 0): camera rays from frame.camera.origin, out[2i] = trace_camera's hit
+// (t or -1, triangle, b1, b2) and out[2i + 1] = trace_closest's. Baked test kernels only
+// (TestKernel::for_baked_scene); a BVH kernel's trace_camera finds nothing.
+const TEST_TRACE_CAMERA: u32 = 41u;
 
 // pdf with which the light strategy picks direction wi at `point` on light test.light_index,
 // found the way a BRDF sample finds it: by tracing the ray to the emitter.
@@ -166,6 +170,13 @@ fn run_test(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) 
             let hit = trace_closest(o.xyz, d, o.w);
             let blocked = trace_occluded(o.xyz, d, o.w, 0u);
             test_out[i] = vec4f(select(-1.0, hit.t, hit.found), select(0.0, 1.0, blocked), 0.0, 0.0);
+        }
+        case TEST_TRACE_CAMERA: {
+            let d = test_in[i].xyz;
+            let camera = trace_camera(d);
+            let closest = trace_closest(frame.camera.origin, d, RAY_INF);
+            test_out[2u * i] = vec4f(select(-1.0, camera.t, camera.found), f32(camera.tri), camera.b1, camera.b2);
+            test_out[2u * i + 1u] = vec4f(select(-1.0, closest.t, closest.found), f32(closest.tri), closest.b1, closest.b2);
         }
         default: {}
     }

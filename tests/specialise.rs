@@ -226,6 +226,90 @@ fn triangles_compiled_into_the_kernel_render_the_bvhs_image() {
     }
 }
 
+/// Camera rays through a baked kernel's camera list (`trace_camera`: each triangle by its edge
+/// planes through the eye, `BakedTriangles::set_camera_eye`) find what the watertight closest-hit
+/// list finds from the same eye, on the Cornell box and every stress scene that bakes: rays
+/// through a 64 × 64 grid of jittered points of the view miss in both or find the same triangle
+/// with the same t and barycentrics bit for bit (a ray within rounding of an edge could pick its neighbour, at the
+/// same t: allowed, none seen); and rays aimed along every edge two coplanar triangles share (at a
+/// quarter, half and three quarters of it, where the two triangles' tests meet) find that surface
+/// in both lists, at the same t within 1e-5: the planes of a shared edge are exact negatives of
+/// each other, so no ray slips between its two triangles.
+#[test]
+fn camera_rays_by_edge_planes_find_the_closest_hit_lists_hits() {
+    use veach::gpu::layout::{FrameParams, TestParams};
+    use veach::gpu::test_kernel::{TestKernel, routine};
+    if renderer().gpu.adapter_info.device_type != wgpu::DeviceType::Cpu {
+        return; // triangles are baked on CPU adapters only
+    }
+    let stress = veach::assets::stress::STRESS_SCENES
+        .iter()
+        .map(|&name| (name, load(&veach::assets::stress::stress_scene(name).unwrap(), &format!("camera-{name}"))));
+    let mut tested = 0;
+    for (name, scene) in stress.chain([("cornell-box", shipped_scene("cornell-box"))]) {
+        if scene.triangles.len() > BAKED_TRIANGLES_MAX {
+            continue;
+        }
+        let gpu_scene = renderer().upload_scene_with(&scene, veach::render::BvhMemory::AutoWithBoxes).unwrap();
+        let kernel = TestKernel::for_baked_scene(renderer(), &gpu_scene).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let camera = scene.camera(None).unwrap();
+        let gpu_camera = camera.to_gpu(64, 64);
+        let [forward, right, up] = [gpu_camera.forward, gpu_camera.right, gpu_camera.up].map(Vec3::from_array);
+        let frame = FrameParams { camera: gpu_camera, ..Default::default() };
+        // A fixed jitter per grid cell (a 32-bit LCG: any points in the cells would do).
+        let mut state = 0x2545_f491u32;
+        let mut next = || {
+            state = state.wrapping_mul(1_664_525).wrapping_add(1_013_904_223);
+            (state >> 8) as f32 / 16_777_216.0
+        };
+        let mut grid = Vec::new();
+        for j in 0..64 {
+            for i in 0..64 {
+                let sx = 2.0 * (i as f32 + next()) / 64.0 - 1.0;
+                let sy = 1.0 - 2.0 * (j as f32 + next()) / 64.0;
+                grid.push((forward + sx * right + sy * up).normalize());
+            }
+        }
+        let mut along_edges = Vec::new();
+        for (k, a) in scene.triangles.iter().enumerate() {
+            for b in &scene.triangles[k + 1..] {
+                let shared: Vec<Vec3> = a.p.iter().copied().filter(|p| b.p.contains(p)).collect();
+                let normal = |t: &veach::scene::Triangle| (t.p[1] - t.p[0]).cross(t.p[2] - t.p[0]);
+                let (na, nb) = (normal(a), normal(b));
+                if shared.len() == 2 && na.cross(nb).length() <= 1e-6 * na.length() * nb.length() {
+                    for f in [0.25, 0.5, 0.75] {
+                        let d = (shared[0].lerp(shared[1], f) - camera.position).normalize();
+                        if d.dot(camera.forward) > 0.0 {
+                            along_edges.push(d);
+                        }
+                    }
+                }
+            }
+        }
+        let input: Vec<[f32; 4]> = grid.iter().chain(&along_edges).map(|d| [d.x, d.y, d.z, 0.0]).collect();
+        let params = TestParams { routine: routine::TRACE_CAMERA, count: input.len() as u32, ..Default::default() };
+        let out = kernel.run(&gpu_scene, &frame, &params, &input, 2).unwrap();
+        let mut wrong = Vec::new();
+        for (k, pair) in out.chunks(2).enumerate() {
+            let (camera_hit, closest) = (pair[0], pair[1]);
+            let same_t = (camera_hit[0] - closest[0]).abs() <= 1e-5 * closest[0].abs();
+            let ok = if k < grid.len() {
+                let both_miss = camera_hit[0] < 0.0 && closest[0] < 0.0;
+                both_miss || camera_hit == closest || (camera_hit[1] != closest[1] && closest[0] > 0.0 && same_t)
+            } else {
+                closest[0] > 0.0 && camera_hit[0] > 0.0 && same_t
+            };
+            if !ok {
+                let kind = if k < grid.len() { "grid" } else { "shared edge" };
+                wrong.push(format!("{kind} ray {:?}: camera list {camera_hit:?}, closest {closest:?}", input[k]));
+            }
+        }
+        assert!(wrong.is_empty(), "{name}: {} of {} rays:\n{}", wrong.len(), input.len(), wrong.join("\n"));
+        tested += 1;
+    }
+    assert!(tested >= 5, "only {tested} scenes were baked");
+}
+
 #[test]
 fn kernels_are_cached_per_feature_set_and_strategy() {
     let scene = shipped_scene("cornell-box");

@@ -566,8 +566,9 @@ impl Renderer {
         let mut arrays: SceneArrays = build_scene_arrays(scene, &features, &bvh);
         // Where the arrays may be uniform (a CPU adapter, `BvhMemory::Auto`), a small scene's
         // triangles are compiled into the kernel instead (before the arrays are padded).
-        // Where the driver branches around untaken code, its compact groups go behind boxes and
-        // direction samples search the emitters' list (BakedTriangles::emitter_list).
+        // Where the driver branches around untaken code, its compact groups go behind boxes,
+        // direction samples search the emitters' list (BakedTriangles::emitter_list) and camera
+        // rays its edge planes through the eye (BakedTriangles::set_camera_eye).
         let info = &self.gpu.adapter_info;
         let branches = memory == BvhMemory::AutoWithBoxes || !runs_branches_masked(&info.driver, &info.driver_info);
         let group_nodes = if branches { &bvh.nodes[..] } else { &[] };

@@ -46,6 +46,13 @@ pub fn test_kernel_source(bvh_stack: u32) -> String {
     format!("{render}// ---- shaders/{name} ----\n{text}\n")
 }
 
+/// The test kernels over baked triangles (`TestKernel::for_baked_scene`).
+pub fn baked_test_kernel_source(baked: &BakedTriangles) -> String {
+    let (name, text) = TEST_KERNELS;
+    let render = render_kernel_source(true, UniformArrays::default(), Some(baked), BVH_STACK_SIZE);
+    format!("{render}// ---- shaders/{name} ----\n{text}\n")
+}
+
 /// How traverse_bvh.wgsl declares its stack's size (`gpu::bvh_nodes::BVH_STACK_SIZE`).
 const STACK_SIZE_DECLARATION: &str = "const BVH_STACK_SIZE: u32 = ";
 

@@ -29,6 +29,7 @@ pub mod routine {
     pub const TEXTURE_LOOKUP: u32 = 30;
     pub const TEXTURED_MATERIAL: u32 = 31;
     pub const TRACE: u32 = 40;
+    pub const TRACE_CAMERA: u32 = 41;
 }
 
 pub struct TestKernel<'a> {
@@ -49,11 +50,22 @@ impl<'a> TestKernel<'a> {
         Self::with_stack(renderer, scene.bvh_stack())
     }
 
+    /// The test kernels over `scene`'s triangles compiled in (traverse_baked.wgsl), camera list
+    /// included where the scene has one; an error for a scene that traverses a BVH.
+    pub fn for_baked_scene(renderer: &'a Renderer, scene: &GpuScene) -> Result<Self> {
+        let baked = scene.baked.as_deref().ok_or_else(|| Error::Gpu("the scene's triangles are not baked".into()))?;
+        Self::from_source(renderer, shaders::baked_test_kernel_source(baked))
+    }
+
     fn with_stack(renderer: &'a Renderer, bvh_stack: u32) -> Result<Self> {
+        Self::from_source(renderer, shaders::test_kernel_source(bvh_stack))
+    }
+
+    fn from_source(renderer: &'a Renderer, source: String) -> Result<Self> {
         let (mut pipelines, layout) = bindings::create_pipelines(
             &renderer.gpu.device,
             "veach test kernels",
-            shaders::test_kernel_source(bvh_stack),
+            source,
             &[shaders::TEST_ENTRY_POINT],
             bindings::ExtraBindings { uniform: Default::default(), textures: true, deferred: false, test_io: true },
             &[],
