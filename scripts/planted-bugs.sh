@@ -73,6 +73,7 @@ bugs=(
   "shaders/integrator.wgsl|trace_occluded(origin, d.wi, hit.t * (1.0 - 1.0e-4), 0u)|false|specialise|triangles_compiled|emitters' list: no shadow ray to the emitter a direction sample found"
   "shaders/traverse_baked.wgsl|let nearer = min(min(u, v), w) >= 0.0 \u0026\u0026 t < (*hit).t;|let nearer = min(u, v) >= 0.0 \u0026\u0026 t < (*hit).t;|specialise|camera_rays|camera list: a triangle's third edge plane left out"
   "crates/veach/src/gpu/baked_triangles.rs|(n0, n1, n2, volume) = (-n0, -n1, -n2, -volume);|volume = -volume;|specialise|camera_rays|camera list: the planes of triangles wound away from the eye not flipped"
+  "shaders/wavefront.wgsl|screen.needs_rays = screen.needs_rays || (d.valid|screen.needs_rays = (d.valid|specialise|wavefront|wavefront: a sample deferred by its last direction sample alone, the others' rays dropped"
   "shaders/control_variate.wgsl|    let above_a = da >= 0.0;\n    let above_b = db >= 0.0;|    let above_a = true;\n    let above_b = true;|strategies|control_variate|control variate: emitters not clipped to the horizon"
   "shaders/integrator.wgsl|    if wi.z > 0.0 {\n        r.g_cv|    if wi.z > 0.0 \u0026\u0026 dot(ls.wi, c.s.ng) > 0.0 {\n        r.g_cv|strategies|control_variate|control variate: light samples' g left out below the geometric normal"
   "shaders/control_variate.wgsl|                    w = mis_weight(f32(plan.m), d.pdf, f32(plan.n), p_light);|                    w = 1.0;|analytic|control_variate|control variate: direction samples' g not MIS-weighted"

@@ -38,9 +38,9 @@ override TRIANGLE_PICKS: bool = true;
 // sample finds what it meets among the emitters alone (trace_emitters), then a shadow ray tests
 // the segment to it (integrator.wgsl, direction_sample_to_emitters). False for BVH kernels.
 override EMITTER_LIST: bool = false;
-// Baked kernels where the driver branches around untaken code: camera rays from the eye the list
-// was built for (frame.camera_list) test the triangles by their edge planes through that eye
-// (traverse_baked.wgsl, trace_camera). False for BVH kernels.
+// Baked kernels for a render from the eye the camera list was built for (KernelKey::camera_list):
+// camera rays test the triangles by their edge planes through that eye (traverse_baked.wgsl,
+// trace_camera). False for BVH kernels.
 override CAMERA_LIST: bool = false;
 // The unshadowed diffuse light may be a control variate (frame.control_variate;
 // control_variate.wgsl).

@@ -557,7 +557,7 @@ fn estimate_radiance(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<fu
     loop {
         *rays += 1u;
         var hit: Hit;
-        if CAMERA_LIST && at_camera && frame.camera_list != 0u {
+        if CAMERA_LIST && at_camera {
             hit = trace_camera(d.wi);
         } else {
             hit = trace_closest(origin, d.wi, t_max);

@@ -77,8 +77,7 @@ struct FrameParams {
     loop_check: u32,
     // 1: the unshadowed diffuse light is a control variate (control_variate.wgsl).
     control_variate: u32,
-    // 1: camera rays start at the eye the baked camera list was built for (trace_camera).
-    camera_list: u32,
+    _pad6: u32,
     // A box around every area light's triangles, for emitter_reach: the sphere's companion,
     // tighter for lights that lie in a plane or along a line.
     emitter_min: vec3f,

@@ -32,7 +32,13 @@ fn render_light_pass(@builtin(global_invocation_id) gid: vec3u) {
     let ray = camera_ray(vec2u(px.x, px.y), sample_2d(&stream));
     var rays = 1u;
     var e = Estimate(vec3f(0.0), vec3f(0.0), vec3f(0.0));
-    let hit = trace_closest(ray.origin, ray.dir, RAY_INF);
+    // With the camera list this kernel has no closest-hit traversal at all.
+    var hit: Hit;
+    if CAMERA_LIST {
+        hit = trace_camera(ray.dir);
+    } else {
+        hit = trace_closest(ray.origin, ray.dir, RAY_INF);
+    }
     if hit.found {
         let c = shading_context(surface_at(hit, ray.dir), ray.dir);
         if frame.hide_emitters == 0u {
@@ -47,7 +53,11 @@ fn render_light_pass(@builtin(global_invocation_id) gid: vec3u) {
             counters[pixel].truncated += 1u;
             return;
         }
-        if plan.m + cone_passes(plan) > 0u {
+        // Deferred only where some direction sample needs a ray; the others' part (the control
+        // variate's terms) is added here.
+        let screen = screen_direction_samples(c, plan, stream);
+        e.brdf = screen.brdf;
+        if cone_passes(plan) > 0u || screen.needs_rays {
             let slot = atomicAdd(&deferred_header.count, 1u);
             deferred[slot] = DeferredSample(e.emitted, pixel, e.light, stream.dim, hit.tri, hit.b1, hit.b2, plan.n | (plan.m << 16u), rays, sample, plan.light_weighting, 0u);
             return;
@@ -58,6 +68,33 @@ fn render_light_pass(@builtin(global_invocation_id) gid: vec3u) {
         return;
     }
     add_sample(pixel, e, rays);
+}
+
+// Whether any of the m direction samples (taken from `stream` as estimate_direction_samples takes
+// them) needs a ray: it adds something where it finds a light, and crosses some light's reach
+// (direction_reach). Where none does, what estimate_direction_samples would add without tracing
+// one, the control variate's terms over m, in the same order: the same sum bit for bit. In the
+// Cornell box at MIS 1 + 1 about 3% of camera samples have a BRDF sample to trace (an estimate
+// from `--stats`' ray counts, docs/performance.md).
+struct DirectionScreen {
+    needs_rays: bool,
+    brdf: vec3f,
+}
+
+fn screen_direction_samples(c: ShadingContext, plan: SamplePlan, stream: SampleStream) -> DirectionScreen {
+    var s = stream;
+    var screen = DirectionScreen(false, vec3f(0.0));
+    for (var k = 0u; k < plan.m; k++) {
+        let d = sample_direction(c, &s);
+        if uses_control_variate() {
+            screen.brdf += control_variate_direction_term(c, d, plan);
+        }
+        screen.needs_rays = screen.needs_rays || (d.valid && direction_reach(d, offset_ray_origin(c.s.p, c.s.ng, d.wi)) > 0.0);
+    }
+    if plan.m > 0u {
+        screen.brdf /= f32(plan.m);
+    }
+    return screen;
 }
 
 // Threads per workgroup of render_direction_pass (crates/veach/src/gpu/layout.rs has the same).

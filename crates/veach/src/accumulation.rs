@@ -3,7 +3,7 @@
 //! per frame and reads the image back whenever it wants to show it.
 
 use crate::error::{Error, Result};
-use crate::features::KernelKey;
+use crate::features::{AutoExecution, KernelKey};
 use crate::gpu::bindings;
 use crate::gpu::context::GpuContext;
 use crate::gpu::layout::{DEFERRED_WORKGROUP, DeferredSample, FrameParams, PixelCounters, WORKGROUP_SIZE};
@@ -153,6 +153,15 @@ impl Accumulation {
             // The scene's small arrays are also uniform buffers where that pays (`upload_scene`).
             key.uniform = scene.uniform;
             key.baked = scene.baked.clone();
+            // Camera rays by the edge planes through the eye where this camera is at it: in the
+            // wavefront's first kernel, which then has no closest-hit list at all, and in the
+            // megakernel where the driver branches around the list its camera pass leaves out
+            // (Mesa 22.3 would run both; docs/performance.md, "Camera rays by edge planes").
+            let at_eye = scene
+                .baked
+                .as_ref()
+                .is_some_and(|b| b.camera_eye() == Some(camera.position.to_array().map(f32::to_bits)));
+            key.camera_list = at_eye && (key.wavefront || gpu.auto_execution() == AutoExecution::Megakernel);
         }
         // The deferred samples of one dispatch: a band of rows, each pixel once, within the
         // binding size and the direction kernel's one-dimensional indirect dispatch.

@@ -187,6 +187,9 @@ pub struct KernelKey {
     /// A small scene's triangles, compiled into the kernel in place of the BVH (`GpuScene`
     /// decides, on CPU adapters); none in the generic kernel.
     pub baked: Option<std::sync::Arc<crate::gpu::baked_triangles::BakedTriangles>>,
+    /// Camera rays test `baked`'s edge planes through the eye (`BakedTriangles::set_camera_eye`):
+    /// the render's camera is at that eye (`Accumulation` decides).
+    pub camera_list: bool,
     /// The unshadowed diffuse light may be a control variate (`RenderSettings::control_variate`).
     pub control_variate: bool,
     /// Entries of the BVH traversal's stack: `gpu::bvh_nodes::BVH_STACK_SIZE`, more for deeper
@@ -215,6 +218,7 @@ impl KernelKey {
             wavefront: false,
             uniform: UniformArrays::default(),
             baked: None,
+            camera_list: false,
             control_variate: true,
             bvh_stack: crate::gpu::bvh_nodes::BVH_STACK_SIZE,
         }
@@ -260,6 +264,7 @@ impl KernelKey {
             wavefront: uses_wavefront(features, settings, auto),
             uniform: UniformArrays::default(),
             baked: None,
+            camera_list: false,
             control_variate: settings.control_variate,
             bvh_stack: crate::gpu::bvh_nodes::BVH_STACK_SIZE,
         }
@@ -291,7 +296,7 @@ impl KernelKey {
             ("POINT_LIGHT_SELECTION", flag(self.point_selection)),
             ("SINGLE_LIGHT", flag(self.single_light)),
             ("EMITTER_LIST", flag(self.baked.as_ref().is_some_and(|b| b.emitter_list()))),
-            ("CAMERA_LIST", flag(self.baked.as_ref().is_some_and(|b| b.camera_eye().is_some()))),
+            ("CAMERA_LIST", flag(self.camera_list && self.baked.as_ref().is_some_and(|b| b.camera_eye().is_some()))),
             ("CONTROL_VARIATE", flag(self.control_variate)),
         ];
         // These exist only in textures.wgsl.

@@ -566,9 +566,8 @@ impl Renderer {
         let mut arrays: SceneArrays = build_scene_arrays(scene, &features, &bvh);
         // Where the arrays may be uniform (a CPU adapter, `BvhMemory::Auto`), a small scene's
         // triangles are compiled into the kernel instead (before the arrays are padded).
-        // Where the driver branches around untaken code, its compact groups go behind boxes,
-        // direction samples search the emitters' list (BakedTriangles::emitter_list) and camera
-        // rays its edge planes through the eye (BakedTriangles::set_camera_eye).
+        // Where the driver branches around untaken code, its compact groups go behind boxes
+        // and direction samples search the emitters' list (BakedTriangles::emitter_list).
         let info = &self.gpu.adapter_info;
         let branches = memory == BvhMemory::AutoWithBoxes || !runs_branches_masked(&info.driver, &info.driver_info);
         let group_nodes = if branches { &bvh.nodes[..] } else { &[] };
@@ -586,9 +585,9 @@ impl Renderer {
                 .collect();
             baked.mark_blockers(&arrays.triangle_lights, (!directional).then_some(&delta[..]));
             baked.set_emitter_list(branches);
-            // Camera rays from the scene's first camera (a render from another, or the viewer's
-            // once it moves, takes the closest-hit list: `frame.camera_list`).
-            baked.set_camera_eye(branches.then(|| scene.camera(None).ok().map(|c| c.position)).flatten());
+            // For camera rays from the scene's first camera (a render from another, or the
+            // viewer's once it moves, takes the closest-hit list: `KernelKey::camera_list`).
+            baked.set_camera_eye(scene.camera(None).ok().map(|c| c.position));
             Arc::new(baked)
         });
         let bvh_stack_bound = crate::gpu::bvh_nodes::stack_bound(&arrays.bvh_nodes);
@@ -761,11 +760,6 @@ impl Renderer {
             hide_emitters: s.hide_emitters as u32,
             loop_check: 2,
             control_variate: s.control_variate as u32,
-            camera_list: scene
-                .baked
-                .as_ref()
-                .is_some_and(|b| b.camera_eye() == Some(camera.position.to_array().map(f32::to_bits)))
-                as u32,
             ..Default::default()
         }
     }

@@ -78,9 +78,7 @@ pub struct FrameParams {
     pub loop_check: u32,
     /// 1: the unshadowed diffuse light is a control variate (shaders/control_variate.wgsl).
     pub control_variate: u32,
-    /// 1: camera rays start at the eye the baked camera list was built for (traverse_baked.wgsl's
-    /// trace_camera, `BakedTriangles::set_camera_eye`).
-    pub camera_list: u32,
+    pub _pad4: u32,
     /// A box around every area light's triangles (min > max: none), for emitter_reach.
     pub emitter_min: [f32; 3],
     pub _pad5: u32,
