@@ -19,8 +19,8 @@ fn trace_closest(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
     return with_barycentrics(hit, origin, sh);
 }
 
-// The closest hit of a camera ray, where CAMERA_LIST and frame.camera_list say the camera's eye o
-// is the one the list was built for. With a = p0 - o, b = p1 - o, c = p2 - o, the ray o + t d
+// The closest hit of a camera ray, in kernels where CAMERA_LIST says the camera's eye o is the one
+// the list was built for. With a = p0 - o, b = p1 - o, c = p2 - o, the ray o + t d
 // crosses the triangle where the signed volumes u = d · (b × c), v = d · (c × a), w = d · (a × b)
 // share a sign, at t = a · (b × c) / (u + v + w): Plücker's edge test with the edges' moments taken
 // about the eye, where each becomes a plane through it (Jones, "Intersecting a Ray and a Triangle

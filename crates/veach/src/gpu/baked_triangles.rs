@@ -164,8 +164,10 @@ impl BakedTriangles {
 
     /// Camera rays from `eye` (None: none) test the triangles by their edge planes through it
     /// (`trace_camera` in traverse_baked.wgsl): per triangle three dot products and a division
-    /// where the watertight test shears its corners per ray. Like `emitter_list`, for drivers that
-    /// branch around code no lane runs: Mesa 22.3 would run the closest-hit list beside it.
+    /// where the watertight test shears its corners per ray. Kernels use it where the render's
+    /// camera is at `eye` (`KernelKey::camera_list`): the wavefront's first kernel, and the
+    /// megakernel where the driver branches around code no lane runs (Mesa 22.3 would run the
+    /// closest-hit list beside it).
     pub fn set_camera_eye(&mut self, eye: Option<Vec3>) {
         self.camera_eye = eye.map(|e| e.to_array().map(f32::to_bits));
         self.camera_planes = self
