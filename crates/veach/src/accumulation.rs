@@ -157,10 +157,7 @@ impl Accumulation {
             // wavefront's first kernel, which then has no closest-hit list at all, and in the
             // megakernel where the driver branches around the list its camera pass leaves out
             // (Mesa 22.3 would run both; docs/performance.md, "Camera rays by edge planes").
-            let at_eye = scene
-                .baked
-                .as_ref()
-                .is_some_and(|b| b.camera_eye() == Some(camera.position.to_array().map(f32::to_bits)));
+            let at_eye = scene.baked.as_ref().is_some_and(|b| b.has_camera_eye(camera.position));
             key.camera_list = at_eye && (key.wavefront || gpu.auto_execution() == AutoExecution::Megakernel);
         }
         // The deferred samples of one dispatch: a band of rows, each pixel once, within the

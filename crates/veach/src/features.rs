@@ -296,7 +296,7 @@ impl KernelKey {
             ("POINT_LIGHT_SELECTION", flag(self.point_selection)),
             ("SINGLE_LIGHT", flag(self.single_light)),
             ("EMITTER_LIST", flag(self.baked.as_ref().is_some_and(|b| b.emitter_list()))),
-            ("CAMERA_LIST", flag(self.camera_list && self.baked.as_ref().is_some_and(|b| b.camera_eye().is_some()))),
+            ("CAMERA_LIST", flag(self.camera_list)),
             ("CONTROL_VARIATE", flag(self.control_variate)),
         ];
         // These exist only in textures.wgsl.

@@ -38,18 +38,11 @@ const TEXTURES_OFF: (&str, &str) = ("textures_none.wgsl", include_str!("../../..
 pub const TEST_KERNELS: (&str, &str) = ("test_kernels.wgsl", include_str!("../../../shaders/test_kernels.wgsl"));
 pub const TEST_ENTRY_POINT: &str = "run_test";
 
-/// The render kernel's source (with textures and a traversal stack of `bvh_stack` entries) followed
-/// by the test kernels (see `gpu::test_kernel`).
-pub fn test_kernel_source(bvh_stack: u32) -> String {
+/// The render kernel's source (with textures, and `baked` triangles or a traversal stack of
+/// `bvh_stack` entries) followed by the test kernels (see `gpu::test_kernel`).
+pub fn test_kernel_source(baked: Option<&BakedTriangles>, bvh_stack: u32) -> String {
     let (name, text) = TEST_KERNELS;
-    let render = render_kernel_source(true, UniformArrays::default(), None, bvh_stack);
-    format!("{render}// ---- shaders/{name} ----\n{text}\n")
-}
-
-/// The test kernels over baked triangles (`TestKernel::for_baked_scene`).
-pub fn baked_test_kernel_source(baked: &BakedTriangles) -> String {
-    let (name, text) = TEST_KERNELS;
-    let render = render_kernel_source(true, UniformArrays::default(), Some(baked), BVH_STACK_SIZE);
+    let render = render_kernel_source(true, UniformArrays::default(), baked, bvh_stack);
     format!("{render}// ---- shaders/{name} ----\n{text}\n")
 }
 
@@ -209,7 +202,7 @@ mod tests {
 
     #[test]
     fn test_kernels_validate_with_naga() {
-        let source = test_kernel_source(BVH_STACK_SIZE);
+        let source = test_kernel_source(None, BVH_STACK_SIZE);
         validate_wgsl(&source).unwrap_or_else(|e| panic!("WGSL invalid:\n{e}"));
     }
 

@@ -182,6 +182,11 @@ impl BakedTriangles {
         self.camera_eye
     }
 
+    /// Whether camera rays from `position` may use the camera list: it is the eye, bit for bit.
+    pub fn has_camera_eye(&self, position: Vec3) -> bool {
+        self.camera_eye == Some(position.to_array().map(f32::to_bits))
+    }
+
     /// Triangles that shadow rays test.
     pub fn blocker_count(&self) -> usize {
         self.blockers.iter().filter(|&&b| b).count()

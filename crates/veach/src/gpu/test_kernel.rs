@@ -54,11 +54,11 @@ impl<'a> TestKernel<'a> {
     /// included where the scene has one; an error for a scene that traverses a BVH.
     pub fn for_baked_scene(renderer: &'a Renderer, scene: &GpuScene) -> Result<Self> {
         let baked = scene.baked.as_deref().ok_or_else(|| Error::Gpu("the scene's triangles are not baked".into()))?;
-        Self::from_source(renderer, shaders::baked_test_kernel_source(baked))
+        Self::from_source(renderer, shaders::test_kernel_source(Some(baked), BVH_STACK_SIZE))
     }
 
     fn with_stack(renderer: &'a Renderer, bvh_stack: u32) -> Result<Self> {
-        Self::from_source(renderer, shaders::test_kernel_source(bvh_stack))
+        Self::from_source(renderer, shaders::test_kernel_source(None, bvh_stack))
     }
 
     fn from_source(renderer: &'a Renderer, source: String) -> Result<Self> {
