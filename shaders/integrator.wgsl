@@ -664,6 +664,7 @@ fn loop_budget_held() -> bool {
 
 @compute @workgroup_size(8, 8, 1)
 fn render(@builtin(global_invocation_id) gid: vec3u) {
+    load_frame();
     let px = band_pixel(gid);
     if !px.inside {
         return;

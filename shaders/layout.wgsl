@@ -254,6 +254,13 @@ struct PixelCounters {
 // shader and compiles a new variant whenever they change, as row_start and sample_start do on
 // every dispatch; that cost ~12 ms and 0.7-7.6 MiB of never-freed memory per dispatch.
 @group(0) @binding(0) var<storage, read> frame: FrameParams;
+// Every entry point calls this first. On CPU adapters (KernelKey::frame_copy) shaders.rs renames
+// the binding above `frame_in`, declares `frame` a private variable and fills it here, once per
+// invocation: Mesa 22.3's lavapipe loads a storage word lane by lane, with a branch per lane and a
+// bounds test, at every read of `frame` (each sample reads a dozen fields), where a private
+// variable's fields are registers (Cornell box 0.75x; docs/performance.md, "The frame's
+// parameters copied once per invocation").
+fn load_frame() {}
 // On CPU adapters each of bindings 1-7 that fits in 64 KiB is a uniform array instead
 // (shaders.rs rewrites its line; render.rs, BvhMemory): their contents never change during a
 // render, so lavapipe compiles the kernel once.

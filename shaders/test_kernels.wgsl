@@ -67,6 +67,7 @@ fn write_sample(i: u32, wi: vec3f, pdf: f32, pdf_eval: f32, weight: f32) {
 
 @compute @workgroup_size(64)
 fn run_test(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) groups: vec3u) {
+    load_frame();
     let i = gid.x + gid.y * groups.x * 64u;
     if i >= test.count {
         return;

@@ -18,6 +18,7 @@
 
 @compute @workgroup_size(8, 8, 1)
 fn render_light_pass(@builtin(global_invocation_id) gid: vec3u) {
+    load_frame();
     let px = band_pixel(gid);
     if !px.inside {
         return;
@@ -102,6 +103,7 @@ const DEFERRED_WORKGROUP: u32 = 64u;
 
 @compute @workgroup_size(1, 1, 1)
 fn prepare_direction_pass() {
+    load_frame();
     let count = atomicExchange(&deferred_header.count, 0u);
     deferred_header.pending = count;
     deferred_dispatch[0] = (count + DEFERRED_WORKGROUP - 1u) / DEFERRED_WORKGROUP;
@@ -165,6 +167,7 @@ fn estimate_direction_samples(c: ShadingContext, plan: SamplePlan, light_dim: u3
 
 @compute @workgroup_size(64, 1, 1)
 fn render_direction_pass(@builtin(global_invocation_id) gid: vec3u) {
+    load_frame();
     let i = gid.x;
     if i >= deferred_header.pending {
         return;

@@ -184,6 +184,10 @@ pub struct KernelKey {
     /// Scene arrays read from uniform buffers (`GpuScene` decides, for small scenes on CPU
     /// adapters); none in the generic kernel.
     pub uniform: UniformArrays,
+    /// Each entry point copies the frame's parameters from their storage buffer into a private
+    /// variable (`Accumulation` decides, on CPU adapters: lavapipe loads a storage word lane by
+    /// lane at every read); none in the generic kernel.
+    pub frame_copy: bool,
     /// A small scene's triangles, compiled into the kernel in place of the BVH (`GpuScene`
     /// decides, on CPU adapters); none in the generic kernel.
     pub baked: Option<std::sync::Arc<crate::gpu::baked_triangles::BakedTriangles>>,
@@ -217,6 +221,7 @@ impl KernelKey {
             texture_kinds: [true; 4],
             wavefront: false,
             uniform: UniformArrays::default(),
+            frame_copy: false,
             baked: None,
             camera_list: false,
             control_variate: true,
@@ -263,6 +268,7 @@ impl KernelKey {
             ],
             wavefront: uses_wavefront(features, settings, auto),
             uniform: UniformArrays::default(),
+            frame_copy: false,
             baked: None,
             camera_list: false,
             control_variate: settings.control_variate,

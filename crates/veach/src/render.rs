@@ -507,7 +507,13 @@ impl Renderer {
         let (pipelines, layout) = bindings::create_pipelines(
             &self.gpu.device,
             "veach render kernel",
-            shaders::render_kernel_source(key.textures, key.uniform, key.baked.as_deref(), key.bvh_stack),
+            shaders::render_kernel_source(
+                key.textures,
+                key.uniform,
+                key.frame_copy,
+                key.baked.as_deref(),
+                key.bvh_stack,
+            ),
             entry_points,
             extra,
             &key.constants(),

@@ -42,9 +42,13 @@ pub const TEST_ENTRY_POINT: &str = "run_test";
 /// `bvh_stack` entries) followed by the test kernels (see `gpu::test_kernel`).
 pub fn test_kernel_source(baked: Option<&BakedTriangles>, bvh_stack: u32) -> String {
     let (name, text) = TEST_KERNELS;
-    let render = render_kernel_source(true, UniformArrays::default(), baked, bvh_stack);
+    let render = render_kernel_source(true, UniformArrays::default(), false, baked, bvh_stack);
     format!("{render}// ---- shaders/{name} ----\n{text}\n")
 }
+
+/// How layout.wgsl declares the frame's parameters and fills their copy (`KernelKey::frame_copy`).
+const FRAME_BINDING: &str = "var<storage, read> frame: FrameParams;";
+const FRAME_LOAD: &str = "fn load_frame() {}";
 
 /// How traverse_bvh.wgsl declares its stack's size (`gpu::bvh_nodes::BVH_STACK_SIZE`).
 const STACK_SIZE_DECLARATION: &str = "const BVH_STACK_SIZE: u32 = ";
@@ -69,10 +73,12 @@ pub const WAVEFRONT_ENTRY_POINTS: [&str; 3] = ["render_light_pass", "prepare_dir
 /// a WGSL error can be traced back to its file. The arrays of `uniform` with a length are read
 /// from uniform arrays of that length instead of storage buffers (`KernelKey::uniform`). With
 /// `baked` triangles, rays test those instead of traversing the BVH (`KernelKey::baked`); without,
-/// the traversal's stack holds `bvh_stack` entries (`KernelKey::bvh_stack`).
+/// the traversal's stack holds `bvh_stack` entries (`KernelKey::bvh_stack`). With `frame_copy`
+/// each entry point copies the frame's parameters into a private variable (`KernelKey::frame_copy`).
 pub fn render_kernel_source(
     textures: bool,
     uniform: UniformArrays,
+    frame_copy: bool,
     baked: Option<&BakedTriangles>,
     bvh_stack: u32,
 ) -> String {
@@ -102,6 +108,12 @@ pub fn render_kernel_source(
         let storage = format!("var<storage, read> {name}: array<{element}>;");
         assert!(source.contains(&storage), "layout.wgsl declares {name} otherwise");
         source = source.replace(&storage, &format!("var<uniform> {name}: array<{element}, {n}>;"));
+    }
+    if frame_copy {
+        assert!(source.contains(FRAME_BINDING) && source.contains(FRAME_LOAD), "layout.wgsl declares frame otherwise");
+        source = source
+            .replace(FRAME_BINDING, "var<storage, read> frame_in: FrameParams;\nvar<private> frame: FrameParams;")
+            .replace(FRAME_LOAD, "fn load_frame() {\n    frame = frame_in;\n}");
     }
     source
 }
@@ -176,13 +188,22 @@ mod tests {
             leaf(4, [0.0; 3], [1.0; 3]),
         ];
         let baked = BakedTriangles::new(&vertices, &[t; 8], &nodes).unwrap();
-        for (textures, uniform, baked) in [
-            (false, UniformArrays::default(), None),
-            (true, UniformArrays::default(), None),
-            (false, small, None),
-            (false, small, Some(&baked)),
+        for (textures, uniform, frame_copy, baked) in [
+            (false, UniformArrays::default(), false, None),
+            (true, UniformArrays::default(), false, None),
+            (false, small, true, None),
+            (false, small, true, Some(&baked)),
         ] {
-            let source = render_kernel_source(textures, uniform, baked, BVH_STACK_SIZE);
+            let source = render_kernel_source(textures, uniform, frame_copy, baked, BVH_STACK_SIZE);
+            if frame_copy {
+                assert!(source.contains("var<private> frame: FrameParams;") && source.contains("frame = frame_in;"));
+                // Every entry point fills the copy before anything reads it.
+                for entry in std::iter::once(RENDER_ENTRY_POINT).chain(WAVEFRONT_ENTRY_POINTS) {
+                    let body = source.split(&format!("fn {entry}(")).nth(1).expect("an entry point");
+                    let first = body.split('{').nth(1).and_then(|b| b.lines().nth(1)).map(str::trim);
+                    assert_eq!(first, Some("load_frame();"), "{entry} does not start with load_frame()");
+                }
+            }
             if baked.is_some() {
                 assert!(!source.lines().any(|l| l.trim_start().starts_with("{baked")), "a template line left in");
                 assert!(!source.contains("var<private> bvh_stack"), "a baked kernel with the BVH's traversal");
@@ -209,9 +230,9 @@ mod tests {
     #[test]
     fn a_deeper_trees_kernel_gets_a_larger_stack() {
         let declares = |n: u32| format!("{STACK_SIZE_DECLARATION}{n}u;");
-        let default = render_kernel_source(false, UniformArrays::default(), None, BVH_STACK_SIZE);
+        let default = render_kernel_source(false, UniformArrays::default(), false, None, BVH_STACK_SIZE);
         assert!(default.contains(&declares(BVH_STACK_SIZE)), "traverse_bvh.wgsl's stack is not BVH_STACK_SIZE");
-        let deeper = render_kernel_source(false, UniformArrays::default(), None, 160);
+        let deeper = render_kernel_source(false, UniformArrays::default(), false, None, 160);
         assert!(deeper.contains(&declares(160)) && !deeper.contains(&declares(BVH_STACK_SIZE)));
         validate_wgsl(&deeper).unwrap_or_else(|e| panic!("WGSL invalid:\n{e}"));
     }
