@@ -670,15 +670,23 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
         return;
     }
     let pixel = px.index;
-    var sum = accum[pixel];
-    var sum_sq = accum_sq[pixel];
-    var count = counters[pixel];
+    var sum = vec4f(0.0);
+    var sum_sq = vec4f(0.0);
+    var count = PixelCounters(0u, 0u, 0u);
     var sum_light = vec4f(0.0);
     var sum_brdf = vec4f(0.0);
     let write_aovs = HAS_AOVS && frame.write_aovs != 0u;
-    if write_aovs {
-        sum_light = aov_light[pixel];
-        sum_brdf = aov_brdf[pixel];
+    // In its rows' first pass the sums are still zero: not read. Mesa 22.3 reads a storage word lane
+    // by lane, and these 11 words cost an invocation about half a camera sample there
+    // (docs/performance.md, "The frame's parameters copied once per invocation").
+    if frame.fresh_sums == 0u {
+        sum = accum[pixel];
+        sum_sq = accum_sq[pixel];
+        count = counters[pixel];
+        if write_aovs {
+            sum_light = aov_light[pixel];
+            sum_brdf = aov_brdf[pixel];
+        }
     }
     // From the pixel's own count of samples (sum.w), which trails the dispatch's first sample
     // where a sample was left out before (loop_budget_held). The loop tests its end at the bottom,

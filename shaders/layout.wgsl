@@ -77,7 +77,8 @@ struct FrameParams {
     loop_check: u32,
     // 1: the unshadowed diffuse light is a control variate (control_variate.wgsl).
     control_variate: u32,
-    _pad6: u32,
+    // 1: this dispatch is its rows' first pass, whose sums are still zero (Accumulation::submit).
+    fresh_sums: u32,
     // A box around every area light's triangles, for emitter_reach: the sphere's companion,
     // tighter for lights that lie in a plane or along a line.
     emitter_min: vec3f,

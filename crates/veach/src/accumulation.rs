@@ -204,7 +204,7 @@ impl Accumulation {
         };
         if created {
             // An empty dispatch (no rows): drivers such as lavapipe compile the kernel here.
-            acc.submit(0, 0, false)?;
+            acc.submit(0, 0, false, false)?;
             acc.kernel_creation = creation_start.elapsed();
         }
         Ok(acc)
@@ -273,7 +273,8 @@ impl Accumulation {
             let rows = (target_work / w as u64).clamp(1, (h - self.row_start) as u64) as u32;
             (rows.min(max_rows), 1)
         };
-        let elapsed = self.submit(rows, samples, true)?;
+        // The first pass over these rows (sample_start 0) finds their sums zeroed at creation.
+        let elapsed = self.submit(rows, samples, self.sample_start == 0, true)?;
         let work = w as u64 * rows as u64 * samples as u64;
         self.last_work = work;
         self.pixel_samples_done += work;
@@ -297,13 +298,15 @@ impl Accumulation {
     /// Submits rows [row_start, row_start + rows) × `samples` camera samples, waits, and returns
     /// the wall-clock time. Dispatches are sized by it, not by timestamps: under eframe on
     /// lavapipe the timestamps of a 13 ms dispatch read 0.08 ms, and one bad reading must not
-    /// size a dispatch of minutes.
-    fn submit(&mut self, rows: u32, samples: u32, timed: bool) -> Result<Duration> {
+    /// size a dispatch of minutes. `fresh_sums`: the rows' sums are still zero (their first pass),
+    /// so the kernel writes them without reading them.
+    fn submit(&mut self, rows: u32, samples: u32, fresh_sums: bool, timed: bool) -> Result<Duration> {
         let (device, queue) = (&self.gpu.device, &self.gpu.queue);
         self.params.row_start = self.row_start;
         self.params.row_count = rows;
         self.params.sample_start = self.sample_start;
         self.params.sample_count = samples;
+        self.params.fresh_sums = fresh_sums as u32;
         queue.write_buffer(&self.params_buffer, 0, bytemuck::bytes_of(&self.params));
         let timer = self.timer.as_ref().filter(|_| timed);
         let mut encoder = device.create_command_encoder(&Default::default());
@@ -387,7 +390,8 @@ impl Accumulation {
             let (row_start, sample_start) = (self.row_start, self.sample_start);
             self.row_start = 0;
             self.sample_start = fewest;
-            self.submit(self.settings.height, self.settings.spp - fewest, true)?;
+            // Pixels that already have samples: the sums are read (fresh_sums false).
+            self.submit(self.settings.height, self.settings.spp - fewest, false, true)?;
             (self.row_start, self.sample_start) = (row_start, sample_start);
         }
     }

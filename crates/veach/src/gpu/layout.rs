@@ -78,7 +78,9 @@ pub struct FrameParams {
     pub loop_check: u32,
     /// 1: the unshadowed diffuse light is a control variate (shaders/control_variate.wgsl).
     pub control_variate: u32,
-    pub _pad4: u32,
+    /// 1: this dispatch is its rows' first pass, whose sums are still zero: `render` writes them
+    /// without reading them first.
+    pub fresh_sums: u32,
     /// A box around every area light's triangles (min > max: none), for emitter_reach.
     pub emitter_min: [f32; 3],
     pub _pad5: u32,
@@ -318,6 +320,8 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             emitter_radius,
             sampler,
             loop_check,
+            control_variate,
+            fresh_sums,
             emitter_min,
             emitter_max
         }),
