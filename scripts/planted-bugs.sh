@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Plants known bugs in the WGSL, one at a time, in a scratch copy of the tree, and checks that
+# Plants known bugs in the WGSL (and the host code), one at a time, in a scratch copy of the tree, and checks that
 # the test meant to catch each one fails. Prints a table; exits non-zero if a bug goes unseen.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -75,6 +75,7 @@ bugs=(
   "crates/veach/src/gpu/baked_triangles.rs|(n0, n1, n2, volume) = (-n0, -n1, -n2, -volume);|volume = -volume;|specialise|camera_rays|camera list: the planes of triangles wound away from the eye not flipped"
   "shaders/wavefront.wgsl|screen.needs_rays = screen.needs_rays || (d.valid|screen.needs_rays = (d.valid|specialise|wavefront|wavefront: a sample deferred by its last direction sample alone, the others' rays dropped"
   "shaders/wavefront.wgsl|fn render_direction_pass(@builtin(global_invocation_id) gid: vec3u) {\n    load_frame();|fn render_direction_pass(@builtin(global_invocation_id) gid: vec3u) {|specialise|wavefront|wavefront: the direction kernel reads the frame's copy unfilled"
+  "crates/veach/src/accumulation.rs|self.settings.spp - fewest, false, true)|self.settings.spp - fewest, true, true)|stress|samples_cut_short|retaken samples overwrite the pixel's sums (fresh_sums where a pixel has samples; Mesa 22 only)"
   "shaders/control_variate.wgsl|    let above_a = da >= 0.0;\n    let above_b = db >= 0.0;|    let above_a = true;\n    let above_b = true;|strategies|control_variate|control variate: emitters not clipped to the horizon"
   "shaders/integrator.wgsl|    if wi.z > 0.0 {\n        r.g_cv|    if wi.z > 0.0 \u0026\u0026 dot(ls.wi, c.s.ng) > 0.0 {\n        r.g_cv|strategies|control_variate|control variate: light samples' g left out below the geometric normal"
   "shaders/control_variate.wgsl|                    w = mis_weight(f32(plan.m), d.pdf, f32(plan.n), p_light);|                    w = 1.0;|analytic|control_variate|control variate: direction samples' g not MIS-weighted"
