@@ -677,8 +677,8 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
     var sum_brdf = vec4f(0.0);
     let write_aovs = HAS_AOVS && frame.write_aovs != 0u;
     // In its rows' first pass the sums are still zero: not read. Mesa 22.3 reads a storage word lane
-    // by lane, and these 11 words cost an invocation about half a camera sample there
-    // (docs/performance.md, "The frame's parameters copied once per invocation").
+    // by lane, and these 11 words, read and written, cost an invocation about half a camera sample
+    // there (docs/performance.md, "The frame's parameters copied once per invocation").
     if frame.fresh_sums == 0u {
         sum = accum[pixel];
         sum_sq = accum_sq[pixel];
