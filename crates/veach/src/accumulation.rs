@@ -152,7 +152,7 @@ impl Accumulation {
         if settings.specialise {
             // The scene's small arrays are also uniform buffers where that pays (`upload_scene`).
             key.uniform = scene.uniform;
-            key.frame_copy = gpu.adapter_info.device_type == wgpu::DeviceType::Cpu;
+            key.frame_copy = gpu.is_cpu();
             key.baked = scene.baked.clone();
             // Camera rays by the edge planes through the eye where this camera is at it: in the
             // wavefront's first kernel, which then has no closest-hit list at all, and in the

@@ -541,7 +541,7 @@ impl Renderer {
     /// Elements of type T a uniform buffer may hold on this adapter, 0 where the arrays stay in
     /// storage.
     fn uniform_capacity<T>(&self, memory: BvhMemory) -> usize {
-        let cpu = self.gpu.adapter_info.device_type == wgpu::DeviceType::Cpu;
+        let cpu = self.gpu.is_cpu();
         if memory == BvhMemory::Storage || !cpu {
             return 0;
         }

@@ -98,6 +98,12 @@ impl GpuContext {
         format!("{} ({:?}, {:?})", self.adapter_info.name, self.adapter_info.backend, self.adapter_info.device_type)
     }
 
+    /// Whether the adapter is a CPU (lavapipe): small arrays become uniform buffers and the frame's
+    /// parameters a private copy there (`render.rs`, `KernelKey::frame_copy`).
+    pub fn is_cpu(&self) -> bool {
+        self.adapter_info.device_type == wgpu::DeviceType::Cpu
+    }
+
     /// What `--execution auto` picks on this driver.
     pub fn auto_execution(&self) -> crate::features::AutoExecution {
         crate::features::AutoExecution::for_adapter(&self.adapter_info)
