@@ -46,6 +46,15 @@ override CAMERA_LIST: bool = false;
 // control_variate.wgsl).
 override CONTROL_VARIATE: bool = true;
 
+// A camera sample takes at most one light-sample request, or at most one direction sample, where
+// the kernel is specialised to the render's counts (KernelKey::at_most_one_light_request,
+// at_most_one_direction_sample): those samples are then taken without a loop. On Mesa 22.3's
+// lavapipe a loop nested in the sample loop cost the Cornell box about a quarter of its render
+// time, and that driver keeps a loop bounded by a constant as a loop (docs/performance.md,
+// "Sample loops left out").
+override AT_MOST_ONE_LIGHT_REQUEST: bool = false;
+override AT_MOST_ONE_DIRECTION_SAMPLE: bool = false;
+
 const STRATEGY_FROM_FRAME: u32 = 255u;
 
 fn active_strategy() -> u32 {

@@ -241,7 +241,7 @@ fn traced_as_direction(ch: LightChoice) -> bool {
 
 // The plan's light samples: n of each light (SELECT_EACH), or n of one light chosen per sample;
 // the sum of those taken here, over n (samples of a round light's cone are direction samples,
-// estimate_radiance). One loop, so the shadow-ray traversal is inlined once.
+// estimate_radiance). One call site of the shadow-ray traversal, so that it is inlined once.
 fn estimate_light_samples(c: ShadingContext, plan: SamplePlan, stream: ptr<function, SampleStream>, rays: ptr<function, u32>) -> vec3f {
     let total = light_sample_requests(plan);
     if total == 0u {
@@ -253,14 +253,23 @@ fn estimate_light_samples(c: ShadingContext, plan: SamplePlan, stream: ptr<funct
         return vec3f(0.0);
     }
     var sum = vec3f(0.0);
-    for (var k = 0u; k < total; k++) {
-        let ch = choose_light(plan, k, stream);
-        if traced_as_direction(ch) {
-            continue;
+    if AT_MOST_ONE_LIGHT_REQUEST {
+        sum = light_request_value(c, plan, 0u, stream, rays);
+    } else {
+        for (var k = 0u; k < total; k++) {
+            sum += light_request_value(c, plan, k, stream, rays);
         }
-        sum += light_sample_value(c, trace_light_sample(c, ch.index, ch.p_select, ch.u, rays), plan);
     }
     return sum / f32(plan.n);
+}
+
+// Light sample k of the plan, traced with a shadow ray (zero where it is a direction sample).
+fn light_request_value(c: ShadingContext, plan: SamplePlan, k: u32, stream: ptr<function, SampleStream>, rays: ptr<function, u32>) -> vec3f {
+    let ch = choose_light(plan, k, stream);
+    if traced_as_direction(ch) {
+        return vec3f(0.0);
+    }
+    return light_sample_value(c, trace_light_sample(c, ch.index, ch.p_select, ch.u, rays), plan);
 }
 
 // Light sample k of the plan where it is a direction in a round light's bounding cone (invalid
@@ -538,6 +547,42 @@ struct Estimate {
     brdf: vec3f,
 }
 
+// Direction sample `taken` of a camera sample (the m BRDF samples, then the light samples that are
+// directions in a round light's cone), valid where it needs a ray: one that adds something where
+// it finds a light, and crosses some light's bounding sphere (traced only as far as that). What it
+// adds without the loop's pass goes to e.brdf: the control variate's term, or with the emitters'
+// list the whole sample.
+struct NextDirection {
+    d: DirectionSample,
+    origin: vec3f,
+    t_max: f32,
+}
+
+fn next_direction_sample(c: ShadingContext, plan: SamplePlan, taken: u32, light_dim: u32, stream: ptr<function, SampleStream>, rays: ptr<function, u32>, e: ptr<function, Estimate>) -> NextDirection {
+    var d: DirectionSample;
+    if taken < plan.m {
+        d = sample_direction(c, stream);
+        if uses_control_variate() {
+            (*e).brdf += control_variate_direction_term(c, d, plan);
+        }
+    } else {
+        d = cone_light_sample(c, plan, taken - plan.m, light_dim, *stream);
+    }
+    var origin = vec3f(0.0);
+    var t_max = 0.0;
+    if d.valid {
+        origin = offset_ray_origin(c.s.p, c.s.ng, d.wi);
+        t_max = direction_reach(d, origin);
+        d.valid = t_max > 0.0;
+        // With the emitters' list a BRDF sample needs no pass of the loop.
+        if EMITTER_LIST && d.valid && d.light == NO_LIGHT {
+            (*e).brdf += direction_sample_to_emitters(c, d, plan, origin, t_max, rays);
+            d.valid = false;
+        }
+    }
+    return NextDirection(d, origin, t_max);
+}
+
 // The camera ray, then the strategy's direction samples and light samples at the surface it hits.
 // Each pass of the loop traces one closest-hit ray, the camera's first and then each direction
 // sample's, so the kernel inlines the closest-hit traversal (and surface_at) once: on lavapipe a
@@ -588,28 +633,25 @@ fn estimate_radiance(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<fu
         // The next direction sample that needs a ray: one that adds something where it finds a
         // light, and crosses some light's bounding sphere (traced only as far as that). After the
         // m BRDF samples, the light samples that are directions in a round light's cone.
-        d.valid = false;
-        while !d.valid && taken < plan.m + cone_passes(plan) {
+        // With at most one direction sample (and no cone passes) that is one step, not a loop
+        // (features.wgsl, AT_MOST_ONE_DIRECTION_SAMPLE).
+        var invalid = d;
+        invalid.valid = false;
+        var next = NextDirection(invalid, origin, t_max);
+        if AT_MOST_ONE_DIRECTION_SAMPLE && !CONE_SAMPLING {
             if taken < plan.m {
-                d = sample_direction(c, stream);
-                if uses_control_variate() {
-                    e.brdf += control_variate_direction_term(c, d, plan);
-                }
-            } else {
-                d = cone_light_sample(c, plan, taken - plan.m, light_dim, *stream);
+                next = next_direction_sample(c, plan, taken, light_dim, stream, rays, &e);
+                taken += 1u;
             }
-            taken += 1u;
-            if d.valid {
-                origin = offset_ray_origin(c.s.p, c.s.ng, d.wi);
-                t_max = direction_reach(d, origin);
-                d.valid = t_max > 0.0;
-                // With the emitters' list a BRDF sample needs no pass of this loop.
-                if EMITTER_LIST && d.valid && d.light == NO_LIGHT {
-                    e.brdf += direction_sample_to_emitters(c, d, plan, origin, t_max, rays);
-                    d.valid = false;
-                }
+        } else {
+            while !next.d.valid && taken < plan.m + cone_passes(plan) {
+                next = next_direction_sample(c, plan, taken, light_dim, stream, rays, &e);
+                taken += 1u;
             }
         }
+        d = next.d;
+        origin = next.origin;
+        t_max = next.t_max;
         if !d.valid {
             break;
         }

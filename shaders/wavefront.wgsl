@@ -85,17 +85,31 @@ struct DirectionScreen {
 fn screen_direction_samples(c: ShadingContext, plan: SamplePlan, stream: SampleStream) -> DirectionScreen {
     var s = stream;
     var screen = DirectionScreen(false, vec3f(0.0));
-    for (var k = 0u; k < plan.m; k++) {
-        let d = sample_direction(c, &s);
-        if uses_control_variate() {
-            screen.brdf += control_variate_direction_term(c, d, plan);
+    // With at most one direction sample, no loop (features.wgsl, AT_MOST_ONE_DIRECTION_SAMPLE).
+    if AT_MOST_ONE_DIRECTION_SAMPLE {
+        if plan.m > 0u {
+            screen = screen_direction_sample(c, plan, &s, screen);
         }
-        screen.needs_rays = screen.needs_rays || (d.valid && direction_reach(d, offset_ray_origin(c.s.p, c.s.ng, d.wi)) > 0.0);
+    } else {
+        for (var k = 0u; k < plan.m; k++) {
+            screen = screen_direction_sample(c, plan, &s, screen);
+        }
     }
     if plan.m > 0u {
         screen.brdf /= f32(plan.m);
     }
     return screen;
+}
+
+// The stream's next direction sample added to the screen.
+fn screen_direction_sample(c: ShadingContext, plan: SamplePlan, stream: ptr<function, SampleStream>, screen: DirectionScreen) -> DirectionScreen {
+    var r = screen;
+    let d = sample_direction(c, stream);
+    if uses_control_variate() {
+        r.brdf += control_variate_direction_term(c, d, plan);
+    }
+    r.needs_rays = r.needs_rays || (d.valid && direction_reach(d, offset_ray_origin(c.s.p, c.s.ng, d.wi)) > 0.0);
+    return r;
 }
 
 // Threads per workgroup of render_direction_pass (crates/veach/src/gpu/layout.rs has the same).

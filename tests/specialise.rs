@@ -52,19 +52,23 @@ fn specialised_kernels_render_the_generic_kernels_image() {
         let camera = scene.camera(None).unwrap();
         let gpu_scene = upload(&scene);
         for strategy in Strategy::ALL {
-            for (write_aovs, light_selection, light_sampling) in [
-                (false, LightSelection::Power, LightSampling::Area),
-                (true, LightSelection::Power, LightSampling::Area),
-                (false, LightSelection::Bsdf, LightSampling::Area),
-                (true, LightSelection::Bsdf, LightSampling::Cone),
+            // With one light and one BRDF sample the specialised kernel takes them without loops
+            // (features.wgsl, AT_MOST_ONE_*), the generic kernel with.
+            for (write_aovs, light_selection, light_sampling, samples) in [
+                (false, LightSelection::Power, LightSampling::Area, 2),
+                (true, LightSelection::Power, LightSampling::Area, 2),
+                (false, LightSelection::Bsdf, LightSampling::Area, 2),
+                (true, LightSelection::Bsdf, LightSampling::Cone, 2),
+                (false, LightSelection::Bsdf, LightSampling::Area, 1),
+                (true, LightSelection::Power, LightSampling::Cone, 1),
             ] {
                 let settings = RenderSettings {
                     width: 24,
                     height: 16,
                     spp: 2,
                     strategy,
-                    light_samples: 2,
-                    brdf_samples: 2,
+                    light_samples: samples,
+                    brdf_samples: samples,
                     light_selection,
                     light_sampling,
                     write_aovs,
@@ -75,6 +79,10 @@ fn specialised_kernels_render_the_generic_kernels_image() {
                 let generic = render(&gpu_scene, &RenderSettings { specialise: false, ..settings.clone() }, &camera);
                 assert_ne!(special.kernel, KernelKey::generic());
                 assert_eq!(generic.kernel, KernelKey::generic());
+                if strategy == Strategy::Mis {
+                    let k = &special.kernel;
+                    assert_eq!(k.at_most_one_light_request && k.at_most_one_direction_sample, samples == 1, "{name}");
+                }
                 let uniform = special.kernel.uniform;
                 let all_uniform = uniform.bvh_nodes > 0 && uniform.vertices > 0 && uniform.triangles > 0;
                 assert_eq!(all_uniform, cpu, "{name}: scene memory {uniform:?}");
@@ -109,18 +117,21 @@ fn wavefront_kernels_render_the_megakernels_image() {
             // The second case also chooses lights per point: the direction kernel rebuilds the
             // point's table from the deferred hit. The third samples round lights by their cones,
             // light samples that the direction kernel takes.
-            for (write_aovs, dispatch_target, light_selection, light_sampling) in [
-                (false, Duration::from_secs(1), LightSelection::Power, LightSampling::Area),
-                (true, Duration::from_nanos(1), LightSelection::Bsdf, LightSampling::Area),
-                (true, Duration::from_nanos(1), LightSelection::Power, LightSampling::Cone),
+            // The last two take one light and one BRDF sample, without loops (AT_MOST_ONE_*).
+            for (write_aovs, dispatch_target, light_selection, light_sampling, samples) in [
+                (false, Duration::from_secs(1), LightSelection::Power, LightSampling::Area, 2),
+                (true, Duration::from_nanos(1), LightSelection::Bsdf, LightSampling::Area, 2),
+                (true, Duration::from_nanos(1), LightSelection::Power, LightSampling::Cone, 2),
+                (false, Duration::from_secs(1), LightSelection::Bsdf, LightSampling::Area, 1),
+                (true, Duration::from_nanos(1), LightSelection::Power, LightSampling::Cone, 1),
             ] {
                 let settings = RenderSettings {
                     width: 24,
                     height: 16,
                     spp: 3,
                     strategy,
-                    light_samples: 2,
-                    brdf_samples: 2,
+                    light_samples: samples,
+                    brdf_samples: samples,
                     light_selection,
                     light_sampling,
                     write_aovs,
@@ -390,14 +401,18 @@ fn every_kernel_renders_the_same_image_with_the_control_variate() {
         let bvh_scene = renderer().upload_scene_with(&scene, veach::render::BvhMemory::Storage).unwrap();
         let boxed_scene = renderer().upload_scene_with(&scene, veach::render::BvhMemory::AutoWithBoxes).unwrap();
         let auto_scene = upload(&scene);
-        for strategy in [Strategy::Uniform, Strategy::Brdf, Strategy::Light, Strategy::Mis] {
+        // Two samples of each kind through the loops, one without them (AT_MOST_ONE_*).
+        for (strategy, samples) in [Strategy::Uniform, Strategy::Brdf, Strategy::Light, Strategy::Mis]
+            .into_iter()
+            .flat_map(|s| [(s, 2), (s, 1)])
+        {
             let settings = RenderSettings {
                 width: 24,
                 height: 16,
                 spp: 3,
                 strategy,
-                light_samples: 2,
-                brdf_samples: 2,
+                light_samples: samples,
+                brdf_samples: samples,
                 light_selection: LightSelection::Bsdf,
                 control_variate: true,
                 seed: 4,

@@ -196,6 +196,10 @@ pub struct KernelKey {
     pub camera_list: bool,
     /// The unshadowed diffuse light may be a control variate (`RenderSettings::control_variate`).
     pub control_variate: bool,
+    /// A camera sample takes at most one light-sample request, or at most one direction sample
+    /// (`at_most_one_sample`): the kernel takes them without a loop.
+    pub at_most_one_light_request: bool,
+    pub at_most_one_direction_sample: bool,
     /// Entries of the BVH traversal's stack: `gpu::bvh_nodes::BVH_STACK_SIZE`, more for deeper
     /// trees (`GpuScene::bvh_stack`). Not a specialisation: every kernel takes its scene's.
     pub bvh_stack: u32,
@@ -225,6 +229,8 @@ impl KernelKey {
             baked: None,
             camera_list: false,
             control_variate: true,
+            at_most_one_light_request: false,
+            at_most_one_direction_sample: false,
             bvh_stack: crate::gpu::bvh_nodes::BVH_STACK_SIZE,
         }
     }
@@ -243,6 +249,7 @@ impl KernelKey {
     pub fn specialised(features: &SceneFeatures, settings: &RenderSettings, auto: AutoExecution) -> KernelKey {
         let parallelograms =
             features.parallelogram_lights && settings.light_sampling != crate::render::LightSampling::SolidAngle;
+        let (at_most_one_light_request, at_most_one_direction_sample) = at_most_one_sample(features, settings);
         KernelKey {
             strategy: Some(effective_strategy(features, settings).0),
             area_lights: features.area_lights,
@@ -272,6 +279,8 @@ impl KernelKey {
             baked: None,
             camera_list: false,
             control_variate: settings.control_variate,
+            at_most_one_light_request,
+            at_most_one_direction_sample,
             bvh_stack: crate::gpu::bvh_nodes::BVH_STACK_SIZE,
         }
     }
@@ -304,6 +313,8 @@ impl KernelKey {
             ("EMITTER_LIST", flag(self.baked.as_ref().is_some_and(|b| b.emitter_list()))),
             ("CAMERA_LIST", flag(self.camera_list)),
             ("CONTROL_VARIATE", flag(self.control_variate)),
+            ("AT_MOST_ONE_LIGHT_REQUEST", flag(self.at_most_one_light_request)),
+            ("AT_MOST_ONE_DIRECTION_SAMPLE", flag(self.at_most_one_direction_sample)),
         ];
         // These exist only in textures.wgsl.
         if self.textures {
@@ -315,6 +326,26 @@ impl KernelKey {
         }
         constants
     }
+}
+
+/// Whether a camera sample takes at most one light-sample request, and at most one direction
+/// sample, by the render's counts: the kernel's plans (integrator.wgsl, `sample_plan`) take at
+/// most n light samples, or n + m at a mis-lobes point without a lobe to sample, each n of every
+/// light with `LightSelection::Each` (one light here), and at most m direction samples.
+pub fn at_most_one_sample(features: &SceneFeatures, settings: &RenderSettings) -> (bool, bool) {
+    let (strategy, n, m) = effective_strategy(features, settings);
+    let (n, m) = match strategy {
+        Strategy::Uniform | Strategy::Brdf => (0, m),
+        Strategy::Light => (n, 0),
+        Strategy::Mis => (n, m),
+        Strategy::MisLobes => (n + m, m),
+    };
+    let lights = if settings.light_selection == crate::render::LightSelection::Each && !features.single_light {
+        u32::MAX
+    } else {
+        1
+    };
+    (n.saturating_mul(lights) <= 1, m <= 1)
 }
 
 /// The strategy and (light, BRDF) sample counts a render runs: `settings`' own, except that
@@ -388,7 +419,36 @@ pub fn uses_wavefront(features: &SceneFeatures, settings: &RenderSettings, auto:
 
 #[cfg(test)]
 mod tests {
-    use super::AutoExecution;
+    use super::{AutoExecution, SceneFeatures, at_most_one_sample};
+    use crate::render::{LightSelection, RenderSettings, Strategy};
+
+    /// The flags must bound every plan the kernel makes: a flag set where a point could take two
+    /// samples would drop the second.
+    #[test]
+    fn at_most_one_sample_only_where_no_plan_takes_two() {
+        let glossy = SceneFeatures { any_glossy: true, ..SceneFeatures::default() };
+        let one_light = SceneFeatures { single_light: true, ..glossy };
+        let at = |features: &SceneFeatures, strategy, n, m, light_selection| {
+            let settings =
+                RenderSettings { strategy, light_samples: n, brdf_samples: m, light_selection, ..Default::default() };
+            at_most_one_sample(features, &settings)
+        };
+        let power = LightSelection::Power;
+        assert_eq!(at(&glossy, Strategy::Mis, 1, 1, power), (true, true));
+        assert_eq!(at(&glossy, Strategy::Mis, 2, 1, power), (false, true));
+        assert_eq!(at(&glossy, Strategy::Mis, 1, 2, power), (true, false));
+        assert_eq!(at(&glossy, Strategy::Light, 1, 0, LightSelection::Bsdf), (true, true));
+        assert_eq!(at(&glossy, Strategy::Brdf, 0, 1, power), (true, true));
+        assert_eq!(at(&glossy, Strategy::Uniform, 0, 3, power), (true, false));
+        // n of every light: one light only where the scene has one.
+        assert_eq!(at(&glossy, Strategy::Mis, 1, 1, LightSelection::Each), (false, true));
+        assert_eq!(at(&one_light, Strategy::Mis, 1, 1, LightSelection::Each), (true, true));
+        // A mis-lobes point without a lobe to sample takes n + m light samples.
+        assert_eq!(at(&glossy, Strategy::MisLobes, 1, 1, power), (false, true));
+        assert_eq!(at(&glossy, Strategy::MisLobes, 1, 0, power), (true, true));
+        let diffuse = SceneFeatures { any_glossy: false, ..SceneFeatures::default() };
+        assert_eq!(at(&diffuse, Strategy::MisLobes, 1, 1, power), (false, true));
+    }
 
     #[test]
     fn auto_execution_follows_the_driver() {
