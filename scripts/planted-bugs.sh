@@ -44,6 +44,7 @@ bugs=(
   "shaders/lights.wgsl|max(b + sqrt(max(h_sq, 0.0)), 0.0)|max(b, 0.0)|strategies|cornell_box|direction samples clipped at the light's centre, not its far side"
   "shaders/lights.wgsl|let box = box_exit(origin, dir, frame.emitter_min, frame.emitter_max);|let box = box_exit(origin, dir, frame.emitter_min, frame.emitter_min);|strategies|flat_grid|past 16 lights, the emitters' box shrunk to its corner"
   "shaders/layout.wgsl|let t = max(-n.z, 0.0);|let t = 0.0;|sampling|encoded_normals|octahedral decoding without the lower hemisphere's fold"
+  "shaders/wavefront.wgsl|    if AT_MOST_ONE_DIRECTION_SAMPLE {\n        if plan.m > 0u {|    if AT_MOST_ONE_DIRECTION_SAMPLE {\n        if plan.m > 1u {|specialise|wavefront|one direction sample taken without its loop but never screened: the wavefront drops it"
   "shaders/wavefront.wgsl|sample_stream(q.pixel, q.sample, frame.seed)|sample_stream(q.pixel, frame.sample_start, frame.seed)|specialise|wavefront|direction kernel re-traces the first round's camera ray"
   "shaders/traverse.wgsl|let int_scale = 32.0;|let int_scale = 256.0;|stress|far_from_the_origin|ray offset of 256 ULPs (2 units at 1e5)"
   "shaders/integrator.wgsl|    return i >= 2u;|    return i >= 1u;|stress|cut_short|loop-limit canary that never fires: Mesa 22 truncates samples silently (passes on Mesa 23+)"
