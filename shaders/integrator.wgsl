@@ -630,14 +630,11 @@ fn estimate_radiance(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<fu
             return e;
         }
         at_camera = false;
-        // The next direction sample that needs a ray: one that adds something where it finds a
-        // light, and crosses some light's bounding sphere (traced only as far as that). After the
-        // m BRDF samples, the light samples that are directions in a round light's cone.
-        // With at most one direction sample (and no cone passes) that is one step, not a loop
-        // (features.wgsl, AT_MOST_ONE_DIRECTION_SAMPLE).
-        var invalid = d;
-        invalid.valid = false;
-        var next = NextDirection(invalid, origin, t_max);
+        // The next direction sample that needs a ray (next_direction_sample). With at most one
+        // direction sample (and no cone passes) that is one step, not a loop (features.wgsl,
+        // AT_MOST_ONE_DIRECTION_SAMPLE).
+        d.valid = false;
+        var next = NextDirection(d, origin, t_max);
         if AT_MOST_ONE_DIRECTION_SAMPLE && !CONE_SAMPLING {
             if taken < plan.m {
                 next = next_direction_sample(c, plan, taken, light_dim, stream, rays, &e);
