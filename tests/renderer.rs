@@ -23,7 +23,7 @@ fn same_seed_gives_the_same_image_whatever_the_dispatch_split() {
     let a = render(&gpu_scene, &small(Strategy::Mis, 5), &camera);
     let b = render(&gpu_scene, &small(Strategy::Mis, 5), &camera);
     assert_eq!(a.sum, b.sum, "same seed, different image");
-    // A headless render's first dispatch takes 2^20 rays' worth of camera samples, passes over
+    // A headless render's first dispatch takes 2^21 rays' worth of camera samples, passes over
     // the image included (Renderer::render): this one's 1,152 samples of 5 rays each.
     assert_eq!(a.dispatches, 1, "a small render took more than one dispatch");
     // Tiny dispatches split the image into bands of rows and one sample at a time.

@@ -471,12 +471,14 @@ fn pad_for_uniform<T: Default + Clone>(array: &mut Vec<T>, capacity: usize) -> u
 }
 
 /// A headless render's first dispatch, in rays, with the default dispatch target of 150 ms:
-/// 2^20, four times the viewer's (accumulation.rs, FIRST_DISPATCH_RAYS), about 40 ms of MIS 1 + 1
-/// on lavapipe for the shipped scenes; a 256×256 render of up to 4 such camera samples is then one
-/// dispatch, where each dispatch costs lavapipe a few milliseconds beyond its samples
-/// (docs/performance.md, "One dispatch for small renders"). Scaled with a shorter target (a time
-/// budget's, or a test's 1 ns for one row at a time), so that it does not overshoot it.
-const HEADLESS_FIRST_DISPATCH_RAYS: u64 = 1 << 20;
+/// 2^21, eight times the viewer's (accumulation.rs, FIRST_DISPATCH_RAYS), about 10 passes over a
+/// 256×256 image at MIS 1 + 1, about 150 ms on lavapipe for the Cornell box. With the short tail
+/// taken in (accumulation.rs, `take_short_tail`) a 256×256 render of up to 20 such camera samples
+/// is one dispatch, where each dispatch costs lavapipe about 15 ms beyond its samples
+/// (docs/performance.md, "One dispatch for small renders" and "No short last dispatch"). Scaled
+/// with a shorter target (a time budget's, or a test's 1 ns for one row at a time), so that it
+/// does not overshoot it.
+const HEADLESS_FIRST_DISPATCH_RAYS: u64 = 1 << 21;
 const DEFAULT_DISPATCH_TARGET: Duration = Duration::from_millis(150);
 
 fn headless_first_dispatch_rays(dispatch_target: Duration) -> u64 {
