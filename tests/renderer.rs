@@ -52,6 +52,13 @@ fn time_limit_stops_the_render_and_reports_the_samples_reached() {
     assert!(out.render_time >= Duration::from_millis(300), "{:?}", out.render_time);
     assert!(out.render_time < Duration::from_secs(3), "{:?}", out.render_time);
     assert!(out.min_samples() >= 1 && out.mean_samples() < u32::MAX as f64);
+    // With the default target (half a second) a time limit caps each dispatch at a tenth of it, so
+    // 300 ms take several dispatches; uncapped, the first dispatch alone (2^21 rays) would run
+    // past the limit.
+    let default_target = RenderSettings { dispatch_target: RenderSettings::default().dispatch_target, ..settings };
+    let out = render(&gpu_scene, &default_target, &camera);
+    assert!(out.dispatches >= 3, "{} dispatches in {:?}", out.dispatches, out.render_time);
+    assert!(out.render_time < Duration::from_secs(3), "{:?}", out.render_time);
 }
 
 #[test]

@@ -292,7 +292,7 @@ pub fn render_settings(s: &BenchStrategy, width: u32, height: u32, budget: &Budg
         // Short dispatches keep a time budget from overshooting.
         dispatch_target: match budget {
             Budget::Seconds(t) => Duration::from_secs_f64((t / 20.0).clamp(0.002, 0.15)),
-            Budget::Spp(_) => Duration::from_millis(150),
+            Budget::Spp(_) => RenderSettings::default().dispatch_target,
         },
         hide_emitters: true,
         ..Default::default()

@@ -162,7 +162,7 @@ pub struct RenderSettings {
     pub seed: u32,
     /// Stop once this much render time is spent (whole dispatches), even before `spp`.
     pub time_limit: Option<Duration>,
-    /// Aim for dispatches of about this long.
+    /// Aim for dispatches of about this long (a tenth of `time_limit` at most).
     pub dispatch_target: Duration,
     /// Also accumulate the light-sample and BRDF-sample contribution images.
     pub write_aovs: bool,
@@ -470,16 +470,19 @@ fn pad_for_uniform<T: Default + Clone>(array: &mut Vec<T>, capacity: usize) -> u
     n as u32
 }
 
-/// A headless render's first dispatch, in rays, with the default dispatch target of 150 ms:
-/// 2^21, eight times the viewer's (accumulation.rs, FIRST_DISPATCH_RAYS), about 10 passes over a
-/// 256×256 image at MIS 1 + 1, about 150 ms on lavapipe for the Cornell box. With the short tail
-/// taken in (accumulation.rs, `take_short_tail`) a 256×256 render of up to 20 such camera samples
-/// is one dispatch, where each dispatch costs lavapipe about 15 ms beyond its samples
-/// (docs/performance.md, "One dispatch for small renders" and "No short last dispatch"). Scaled
-/// with a shorter target (a time budget's, or a test's 1 ns for one row at a time), so that it
-/// does not overshoot it.
+/// A headless render's first dispatch, in rays, with the default dispatch target: 2^21, eight
+/// times the viewer's (accumulation.rs, FIRST_DISPATCH_RAYS), about 10 passes over a 256×256 image
+/// at MIS 1 + 1, 0.15 s on lavapipe for the Cornell box and 0.6 s for the Veach scene. With the
+/// short tail taken in (accumulation.rs, `take_short_tail`) a 256×256 render of up to 20 such
+/// camera samples is one dispatch (docs/performance.md, "One dispatch for small renders" and "No
+/// short last dispatch"). Scaled with a shorter target (a time budget's, or a test's 1 ns for one
+/// row at a time), so that it does not overshoot it.
 const HEADLESS_FIRST_DISPATCH_RAYS: u64 = 1 << 21;
-const DEFAULT_DISPATCH_TARGET: Duration = Duration::from_millis(150);
+/// Half a second: the progress bar moves twice a second, and Ctrl-C waits at most about that long,
+/// while lavapipe's 10–20 ms per dispatch beyond its samples stays a few percent of a render (it
+/// was 150 ms, whose dispatches cost the Veach scene at 32 spp 1.19x the time;
+/// docs/performance.md, "No short last dispatch"). GPUs' watchdogs allow seconds.
+const DEFAULT_DISPATCH_TARGET: Duration = Duration::from_millis(500);
 
 fn headless_first_dispatch_rays(dispatch_target: Duration) -> u64 {
     let scale = (dispatch_target.as_secs_f64() / DEFAULT_DISPATCH_TARGET.as_secs_f64()).min(1.0);
@@ -782,10 +785,15 @@ impl Renderer {
         progress: &mut dyn FnMut(Progress) -> bool,
     ) -> Result<RenderOutput> {
         let mut acc = Accumulation::new(self, scene, settings, camera)?;
-        acc.set_first_dispatch_rays(headless_first_dispatch_rays(settings.dispatch_target));
+        // With a time limit, no dispatch longer than a tenth of it, so that the render stops near it.
+        let target = match settings.time_limit {
+            Some(t) => settings.dispatch_target.min(t / 10),
+            None => settings.dispatch_target,
+        };
+        acc.set_first_dispatch_rays(headless_first_dispatch_rays(target));
         let total_pixel_samples = settings.width as u64 * settings.height as u64 * settings.spp as u64;
         while !acc.is_complete() && settings.time_limit.is_none_or(|t| acc.render_time() < t) {
-            acc.dispatch(settings.dispatch_target)?;
+            acc.dispatch(target)?;
             let done = acc.pixel_samples_done();
             let mut fraction = if total_pixel_samples > 0 { done as f64 / total_pixel_samples as f64 } else { 1.0 };
             if let Some(t) = settings.time_limit {
