@@ -53,6 +53,10 @@ pub struct Accumulation {
     /// The first dispatch's work in rays (`rays_per_camera_sample`), where a headless render has
     /// set it (`set_first_dispatch_rays`); None: FIRST_DISPATCH_RAYS, at most one pass.
     first_dispatch_rays: Option<u64>,
+    /// The most camera samples a band of rows takes per pixel (`set_band_samples`; 1: the viewer's
+    /// passes), and what the bands of the pass under way take.
+    band_samples: u32,
+    pass_samples: u32,
     pixel_samples_done: u64,
     render_time: Duration,
     gpu_time: Duration,
@@ -206,6 +210,8 @@ impl Accumulation {
             cost: None,
             last_work: 0,
             first_dispatch_rays: None,
+            band_samples: 1,
+            pass_samples: 1,
             pixel_samples_done: 0,
             render_time: Duration::ZERO,
             gpu_time: Duration::ZERO,
@@ -243,6 +249,15 @@ impl Accumulation {
     /// FIRST_DISPATCH_RAYS at most one pass, so that a change of settings shows within a frame.
     pub fn set_first_dispatch_rays(&mut self, rays: u64) {
         self.first_dispatch_rays = Some(rays);
+    }
+
+    /// Lets a band of rows take up to `n` camera samples per pixel where a whole image's pass
+    /// does not fit a dispatch. Each invocation then spreads its fixed cost over several samples:
+    /// on lavapipe one sample per invocation costs about 2.4× what a sample in a longer run costs
+    /// (docs/performance.md, "Bands of several samples"). The image is the same; only the order in
+    /// which pixels reach their count changes, so the viewer, which shows every pass, keeps 1.
+    pub fn set_band_samples(&mut self, n: u32) {
+        self.band_samples = n.max(1);
     }
 
     pub fn settings(&self) -> &RenderSettings {
@@ -285,9 +300,14 @@ impl Accumulation {
             let k = (target_work / pixels).clamp(1, left as u64) as u32;
             (h, short_tail(k, left))
         } else {
+            // A pass of bands: every band of it takes the same samples, chosen as it starts.
+            if self.row_start == 0 {
+                self.pass_samples = self.band_samples.min(self.settings.spp - self.sample_start);
+            }
+            let samples = self.pass_samples;
             let left = h - self.row_start;
-            let rows = (target_work / w as u64).clamp(1, left as u64) as u32;
-            (short_tail(rows, left).min(max_rows), 1)
+            let rows = (target_work / (w as u64 * samples as u64)).clamp(1, left as u64) as u32;
+            (short_tail(rows, left).min(max_rows), samples)
         };
         // The first pass over these rows (sample_start 0) finds their sums zeroed at creation.
         let elapsed = self.submit(rows, samples, self.sample_start == 0, true)?;

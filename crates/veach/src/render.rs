@@ -483,6 +483,10 @@ const HEADLESS_FIRST_DISPATCH_RAYS: u64 = 1 << 21;
 /// was 150 ms, whose dispatches cost the Veach scene at 32 spp 1.19x the time;
 /// docs/performance.md, "No short last dispatch"). GPUs' watchdogs allow seconds.
 const DEFAULT_DISPATCH_TARGET: Duration = Duration::from_millis(500);
+/// The most camera samples a band of rows takes per pixel in a headless render
+/// (`Accumulation::set_band_samples`): 8 leaves lavapipe's fixed cost per invocation about a
+/// tenth of the work, while bands of a 500 ms dispatch stay many rows tall at 4K.
+const BAND_SAMPLES: u32 = 8;
 
 fn headless_first_dispatch_rays(dispatch_target: Duration) -> u64 {
     let scale = (dispatch_target.as_secs_f64() / DEFAULT_DISPATCH_TARGET.as_secs_f64()).min(1.0);
@@ -791,6 +795,11 @@ impl Renderer {
             None => settings.dispatch_target,
         };
         acc.set_first_dispatch_rays(headless_first_dispatch_rays(target));
+        // Without a time limit nothing stops a render between passes, so bands of rows may take
+        // several samples each (a time limit keeps whole passes, so its pixels' counts stay even).
+        if settings.time_limit.is_none() {
+            acc.set_band_samples(BAND_SAMPLES);
+        }
         let total_pixel_samples = settings.width as u64 * settings.height as u64 * settings.spp as u64;
         while !acc.is_complete() && settings.time_limit.is_none_or(|t| acc.render_time() < t) {
             acc.dispatch(target)?;
