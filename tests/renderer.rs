@@ -26,7 +26,7 @@ fn same_seed_gives_the_same_image_whatever_the_dispatch_split() {
     // A headless render's first dispatch takes 2^21 rays' worth of camera samples, passes over
     // the image included (Renderer::render): this one's 1,152 samples of 5 rays each.
     assert_eq!(a.dispatches, 1, "a small render took more than one dispatch");
-    // Tiny dispatches split the image into bands of rows and one sample at a time.
+    // Tiny dispatches split the image into bands of rows.
     let tiny = RenderSettings { dispatch_target: Duration::from_nanos(1), ..small(Strategy::Mis, 5) };
     let c = render(&gpu_scene, &tiny, &camera);
     assert!(c.dispatches > a.dispatches, "expected more dispatches: {} vs {}", c.dispatches, a.dispatches);

@@ -54,9 +54,8 @@ pub struct Accumulation {
     /// set it (`set_first_dispatch_rays`); None: FIRST_DISPATCH_RAYS, at most one pass.
     first_dispatch_rays: Option<u64>,
     /// The most camera samples a band of rows takes per pixel (`set_band_samples`; 1: the viewer's
-    /// passes), and what the bands of the pass under way take.
+    /// passes).
     band_samples: u32,
-    pass_samples: u32,
     pixel_samples_done: u64,
     render_time: Duration,
     gpu_time: Duration,
@@ -211,7 +210,6 @@ impl Accumulation {
             last_work: 0,
             first_dispatch_rays: None,
             band_samples: 1,
-            pass_samples: 1,
             pixel_samples_done: 0,
             render_time: Duration::ZERO,
             gpu_time: Duration::ZERO,
@@ -300,11 +298,9 @@ impl Accumulation {
             let k = (target_work / pixels).clamp(1, left as u64) as u32;
             (h, short_tail(k, left))
         } else {
-            // A pass of bands: every band of it takes the same samples, chosen as it starts.
-            if self.row_start == 0 {
-                self.pass_samples = self.band_samples.min(self.settings.spp - self.sample_start);
-            }
-            let samples = self.pass_samples;
+            // A pass of bands: sample_start moves only when the pass ends, so every band of it
+            // takes the same samples.
+            let samples = self.band_samples.min(self.settings.spp - self.sample_start);
             let left = h - self.row_start;
             let rows = (target_work / (w as u64 * samples as u64)).clamp(1, left as u64) as u32;
             (short_tail(rows, left).min(max_rows), samples)

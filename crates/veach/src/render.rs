@@ -480,7 +480,7 @@ fn pad_for_uniform<T: Default + Clone>(array: &mut Vec<T>, capacity: usize) -> u
 const HEADLESS_FIRST_DISPATCH_RAYS: u64 = 1 << 21;
 /// Half a second: the progress bar moves twice a second, and Ctrl-C waits at most about that long,
 /// while lavapipe's 10–20 ms per dispatch beyond its samples stays a few percent of a render (it
-/// was 150 ms, whose dispatches cost the Veach scene at 32 spp 1.19x the time;
+/// was 150 ms, whose dispatches cost the Veach scene at 32 spp 1.10x the time;
 /// docs/performance.md, "No short last dispatch"). GPUs' watchdogs allow seconds.
 const DEFAULT_DISPATCH_TARGET: Duration = Duration::from_millis(500);
 /// The most camera samples a band of rows takes per pixel in a headless render
