@@ -92,9 +92,6 @@ fn emitter_polygons(light: Light) -> u32 {
     return select(light.tri_count, 1u, parallelogram_sampled(light));
 }
 
-fn control_variate_lights() -> u32 {
-    return select(frame.light_count, 1u, SINGLE_LIGHT);
-}
 
 // Polygon i of a light: a corner and the edges to its two neighbours, a parallelogram (o, o + e1,
 // o + e1 + e2, o + e2) or a triangle (p0, p0 + e1, p0 + e2); the triangle it lies on, for its pdf.
@@ -134,7 +131,7 @@ fn unshadowed_light_integral(c: ShadingContext) -> vec3f {
         return vec3f(0.0);
     }
     var sum = vec3f(0.0);
-    for (var li = 0u; li < control_variate_lights(); li++) {
+    for (var li = 0u; li < light_count(); li++) {
         let light = light_at(li);
         if light.kind != LIGHT_AREA {
             continue;
@@ -184,7 +181,7 @@ fn control_variate_direction_term(c: ShadingContext, d: DirectionSample, plan: S
         return vec3f(0.0);
     }
     var sum = vec3f(0.0);
-    for (var li = 0u; li < control_variate_lights(); li++) {
+    for (var li = 0u; li < light_count(); li++) {
         let light = light_at(li);
         if light.kind != LIGHT_AREA {
             continue;

@@ -208,10 +208,10 @@ fn light_sample_value(c: ShadingContext, s: LightSampleEval, plan: SamplePlan) -
 
 // How many light samples, and so sampler requests, estimate_light_samples takes.
 fn light_sample_requests(plan: SamplePlan) -> u32 {
-    if frame.light_count == 0u || plan.n == 0u {
+    if light_count() == 0u || plan.n == 0u {
         return 0u;
     }
-    return select(plan.n, plan.n * frame.light_count, frame.light_selection == SELECT_EACH);
+    return select(plan.n, plan.n * light_count(), frame.light_selection == SELECT_EACH);
 }
 
 // Light sample k of a plan: the light (the k / n-th with SELECT_EACH, else one chosen by the
@@ -403,7 +403,7 @@ fn direction_sample_value(c: ShadingContext, d: DirectionSample, plan: SamplePla
         return vec3f(0.0);
     }
     var w = 1.0;
-    if d.mis && HAS_AREA_LIGHTS && e.light != NO_LIGHT && frame.light_count > 0u && plan.n > 0u {
+    if d.mis && HAS_AREA_LIGHTS && e.light != NO_LIGHT && light_count() > 0u && plan.n > 0u {
         let p_light = area_light_pdf(e.light, c.s.p, triangle_positions(triangles[tri]), e.p);
         if p_light > 0.0 {
             w = mis_weight(f32(plan.m), d.pdf, f32(plan.n), p_light);
@@ -449,7 +449,7 @@ const MAX_ALLOCATION_LIGHTS: u32 = 16u;
 // fixed before sampling, so the estimator stays unbiased whatever it says (Veach & Guibas 1995,
 // eq. 8); only its variance depends on choosing well.
 fn glossy_lobe_outsamples_lights(c: ShadingContext) -> bool {
-    if !HAS_AREA_LIGHTS || c.bsdf.delta || frame.light_count > MAX_ALLOCATION_LIGHTS {
+    if !HAS_AREA_LIGHTS || c.bsdf.delta || light_count() > MAX_ALLOCATION_LIGHTS {
         return true;
     }
     let axis = frame_to_world(c.frame, vec3f(-c.wo.x, -c.wo.y, c.wo.z));
@@ -459,7 +459,7 @@ fn glossy_lobe_outsamples_lights(c: ShadingContext) -> bool {
     // the count: a light fails the test below wherever m p_peak Ω_max <= n P(light), with
     // Ω_max = 2π r² / dist² >= Ω, which needs no square root (most lights, on rough lobes).
     let m_peak = m_lobe * smith_g1(c.wo.z, c.bsdf.alpha) / (4.0 * c.wo.z * PI * c.bsdf.alpha * c.bsdf.alpha);
-    for (var li = 0u; li < frame.light_count; li++) {
+    for (var li = 0u; li < light_count(); li++) {
         let light = light_at(li);
         if light.kind != LIGHT_AREA {
             continue;
@@ -508,7 +508,7 @@ fn glossy_lobe_outsamples_lights(c: ShadingContext) -> bool {
 // samples too. A mirror lobe's one direction needs one sample.
 fn lobe_mis_plan(c: ShadingContext) -> SamplePlan {
     // The host refuses light_samples = 0 for this strategy (the diffuse lobe needs them).
-    if frame.light_count == 0u {
+    if light_count() == 0u {
         return SamplePlan(0u, LIGHT_LOBE_MIS, 0u);
     }
     let lobe_sampled = has_glossy_lobe(c.bsdf) && glossy_lobe_outsamples_lights(c);
@@ -728,12 +728,14 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
         }
     }
     // From the pixel's own count of samples (sum.w), which trails the dispatch's first sample
-    // where a sample was left out before (loop_budget_held). The loop tests its end at the bottom,
-    // not at the top as a `for` does: on Mesa 22.3's lavapipe, where masked-off code still runs,
-    // the `for` cost about half a camera sample more per dispatch (a one-sample pass over the
-    // Cornell box 15 ms, now 10.3 ms; docs/performance.md, "The sample loop tested at its end").
-    // Its tests read the end from `frame` each time: held in a variable, it made the Cornell box
-    // 1.10x slower on Mesa 22.3 (not understood; measured twice).
+    // where a sample was left out before (loop_budget_held). The loop's end test is the last
+    // statement of its body: written in a `continuing` block (or at the top, as a `for` or `while`
+    // has it), Mesa 22.3's lavapipe, which runs code whose lanes are all masked off, ran the whole
+    // body once more after the last trip, a camera sample's worth per pixel (one-sample renders of
+    // the Cornell box took 0.6x the time without it; docs/performance.md, "Loops tested at the end
+    // of their body"). The other hot loops (traversal, lights) are written the same way. The tests
+    // read the end from `frame` each time: held in a variable, it made the Cornell box 1.10x
+    // slower on Mesa 22.3 (not understood; measured twice, before this form).
     var k = u32(sum.w);
     if k < frame.sample_start + frame.sample_count {
         loop {
@@ -758,9 +760,9 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
                 sum.w += 1.0;
                 count.nonfinite += 1u;
             }
-            continuing {
-                k++;
-                break if k >= frame.sample_start + frame.sample_count;
+            k++;
+            if k >= frame.sample_start + frame.sample_count {
+                break;
             }
         }
     }

@@ -37,8 +37,8 @@ var<private> point_selection: array<f32, MAX_POINT_SELECTION_LIGHTS>;
 const POWER_SHARE: f32 = 0.25;
 
 fn uses_point_selection() -> bool {
-    return POINT_LIGHT_SELECTION && frame.light_selection == SELECT_BSDF && frame.light_count > 1u &&
-        frame.light_count <= MAX_POINT_SELECTION_LIGHTS;
+    return POINT_LIGHT_SELECTION && frame.light_selection == SELECT_BSDF && light_count() > 1u &&
+        light_count() <= MAX_POINT_SELECTION_LIGHTS;
 }
 
 // A guess at how much light `index` sends to x through the BSDF: its power share times
@@ -75,16 +75,27 @@ fn prepare_point_selection(x: vec3f, shading: Frame, wo: vec3f, bsdf: BsdfParams
     if !uses_point_selection() {
         return;
     }
+    // Loops tested at their end (integrator.wgsl's `render` says why): there are two lights or more.
     var sum = 0.0;
-    for (var i = 0u; i < frame.light_count; i++) {
+    var i = 0u;
+    loop {
         let g = light_importance(i, x, shading, wo, bsdf);
         point_selection[i] = g;
         sum += g;
+        i++;
+        if i >= light_count() {
+            break;
+        }
     }
     let guess = select(0.0, (1.0 - POWER_SHARE) / sum, sum > 0.0 && sum < RAY_INF);
     let power = select(1.0, POWER_SHARE, guess > 0.0);
-    for (var i = 0u; i < frame.light_count; i++) {
+    i = 0u;
+    loop {
         point_selection[i] = power * light_picks[i].pdf + guess * point_selection[i];
+        i++;
+        if i >= light_count() {
+            break;
+        }
     }
 }
 
@@ -93,7 +104,9 @@ fn prepare_point_selection(x: vec3f, shading: Frame, wo: vec3f, bsdf: BsdfParams
 fn select_light_at_point(u: f32) -> DiscretePick {
     var start = 0.0;
     var pick = DiscretePick(0u, u);
-    for (var i = 0u; i < frame.light_count; i++) {
+    // Tested at its end, as in prepare_point_selection (two lights or more).
+    var i = 0u;
+    loop {
         let p = point_selection[i];
         // The last light with p > 0 whose interval starts at or below u: rounding in the sum
         // cannot leave u without a light.
@@ -101,6 +114,10 @@ fn select_light_at_point(u: f32) -> DiscretePick {
             pick = DiscretePick(i, clamp((u - start) / p, 0.0, ONE_MINUS_EPSILON));
         }
         start += p;
+        i++;
+        if i >= light_count() {
+            break;
+        }
     }
     return pick;
 }
@@ -116,7 +133,7 @@ fn light_selection_pdf(index: u32) -> f32 {
     }
     switch frame.light_selection {
         case SELECT_UNIFORM: {
-            return 1.0 / f32(frame.light_count);
+            return 1.0 / f32(light_count());
         }
         case SELECT_POWER, SELECT_BSDF: {
             return light_picks[index].pdf;
@@ -161,9 +178,15 @@ fn alias_pick(b: AliasBucket, keep: f32, own: u32, other: u32) -> DiscretePick {
 
 // A light with probability light_picks[i].pdf, by the lights' alias table.
 fn select_light_by_power(u: f32) -> DiscretePick {
-    let b = alias_bucket(u, frame.light_count);
+    let b = alias_bucket(u, light_count());
     let bucket = light_picks[b.index];
     return alias_pick(b, bucket.alias_prob, b.index, bucket.alias_index);
+}
+
+// How many lights loops over the lights visit: with SINGLE_LIGHT the constant 1, so that the
+// compiler unrolls them away (on Mesa 22.3 a loop costs one pass more than it iterates).
+fn light_count() -> u32 {
+    return select(frame.light_count, 1u, SINGLE_LIGHT);
 }
 
 // Light `index`'s record; with SINGLE_LIGHT, light 0's at a constant index.
@@ -185,7 +208,7 @@ fn select_light(u: f32) -> DiscretePick {
     if frame.light_selection == SELECT_POWER || frame.light_selection == SELECT_BSDF {
         return select_light_by_power(u);
     }
-    let b = alias_bucket(u, frame.light_count);
+    let b = alias_bucket(u, light_count());
     return DiscretePick(b.index, remap_below(b.frac, 1.0));
 }
 
@@ -462,7 +485,7 @@ fn emitter_reach(origin: vec3f, dir: vec3f) -> f32 {
     if !HAS_AREA_LIGHTS {
         return 0.0;
     }
-    if frame.light_count > MAX_REACH_LIGHTS {
+    if light_count() > MAX_REACH_LIGHTS {
         // Every emitter lies in both: a ray finds one before it leaves either. The box is the
         // tighter for lights in a plane (a ceiling of panels): under `veach scale`'s grid of
         // 10,000 lights it traces 0.86x the sphere's rays, and renders 100 lights in 0.81x the time.
@@ -471,12 +494,19 @@ fn emitter_reach(origin: vec3f, dir: vec3f) -> f32 {
         return min(sphere, box) * (1.0 + 1.0e-4);
     }
     var reach = 0.0;
-    for (var li = 0u; li < frame.light_count; li++) {
-        let light = light_at(li);
-        if light.kind != LIGHT_AREA {
-            continue;
+    // Tested at its end (integrator.wgsl's `render` says why).
+    var li = 0u;
+    if li < light_count() {
+        loop {
+            let light = light_at(li);
+            if light.kind == LIGHT_AREA {
+                reach = max(reach, sphere_exit(origin, dir, light.position, light.bound_radius));
+            }
+            li++;
+            if li >= light_count() {
+                break;
+            }
         }
-        reach = max(reach, sphere_exit(origin, dir, light.position, light.bound_radius));
     }
     // A little past the exit, for the rounding of the exit distance itself.
     return reach * (1.0 + 1.0e-4);

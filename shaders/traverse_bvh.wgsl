@@ -125,7 +125,7 @@ fn push(node: u32, s: ptr<function, TraversalStack>) {
         return;
     }
     // A full window's oldest entry, `bottom`, is in the slot entry k takes.
-    for (var spill = u32(k - (*s).bottom == WINDOW); spill > 0u; spill--) {
+    if k - (*s).bottom == WINDOW {
         bvh_stack[(*s).bottom] = window_slot(s, k);
         (*s).bottom += 1u;
     }
@@ -167,10 +167,18 @@ fn next_node(node: u32, t: vec4f, stack: ptr<function, TraversalStack>) -> u32 {
     // The entered children past the nearest (e1, e2, e3 in order), pushed farthest first by one
     // push in a loop: Mesa 22.3 runs every `if`'s code under a mask whether a lane takes it or
     // not, but ends a loop once no lane goes on (the Veach scene 0.97-0.98x there, when every push
-    // went to memory; three pushes under `if`s before).
-    let entered = u32(e1.x != missed) + u32(e2.x != missed) + u32(e3.x != missed);
-    for (var k = entered; k > 0u; k--) {
-        push(select(select(e3.y, e2.y, k == 2u), e1.y, k == 1u), stack);
+    // went to memory; three pushes under `if`s before). Like every loop here it tests its end as
+    // the last statement of its body, or Mesa 22.3 runs the body once more with no lane active
+    // (integrator.wgsl's `render`).
+    var k = u32(e1.x != missed) + u32(e2.x != missed) + u32(e3.x != missed);
+    if k > 0u {
+        loop {
+            push(select(select(e3.y, e2.y, k == 2u), e1.y, k == 1u), stack);
+            k--;
+            if k == 0u {
+                break;
+            }
+        }
     }
     if e0.x != missed {
         return e0.y;
@@ -195,18 +203,29 @@ fn trace_closest(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
     var stack = empty_stack();
     var position = 0u;
     loop {
-        while position < LEAF_BIT {
-            position = next_node(position, child_distances(position, origin, inv_dir, hit.t), &stack);
+        if position < LEAF_BIT {
+            loop {
+                position = next_node(position, child_distances(position, origin, inv_dir, hit.t), &stack);
+                if position >= LEAF_BIT {
+                    break;
+                }
+            }
         }
         if position == NO_NODE {
             break;
         }
-        let first = leaf_first(position);
-        for (var i = first; i < first + leaf_count(position); i++) {
+        // A leaf holds at least one triangle.
+        var i = leaf_first(position);
+        let end = i + leaf_count(position);
+        loop {
             let tri = triangle_corners(i);
             let r = intersect_triangle(origin, sh, tri.p0, tri.p1, tri.p2, hit.t);
             if r.x > 0.0 {
                 hit = Hit(r.x, r.y, r.z, i, true);
+            }
+            i++;
+            if i >= end {
+                break;
             }
         }
         if stack.sp == 0u {
@@ -228,21 +247,31 @@ fn trace_occluded(origin: vec3f, dir: vec3f, t_max: f32, skip: u32) -> bool {
     var stack = empty_stack();
     var position = 0u;
     loop {
-        while position < LEAF_BIT {
+        if position < LEAF_BIT {
+            loop {
             let lights_01 = bvh_nodes[position].lights_01;
             let lights_23 = bvh_nodes[position].lights_23;
             let tags = vec4u(lights_01 & 0xffffu, lights_01 >> 16u, lights_23 & 0xffffu, lights_23 >> 16u);
             let t = child_distances(position, origin, inv_dir, t_max);
             position = next_node(position, select(t, vec4f(RAY_INF), tags == vec4u(skipped)), &stack);
+            if position >= LEAF_BIT {
+                break;
+            }
+            }
         }
         if position == NO_NODE {
             break;
         }
-        let first = leaf_first(position);
-        for (var i = first; i < first + leaf_count(position); i++) {
+        var i = leaf_first(position);
+        let end = i + leaf_count(position);
+        loop {
             let tri = triangle_corners(i);
             if intersect_triangle(origin, sh, tri.p0, tri.p1, tri.p2, t_max).x > 0.0 {
                 return true;
+            }
+            i++;
+            if i >= end {
+                break;
             }
         }
         if stack.sp == 0u {
