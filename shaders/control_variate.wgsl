@@ -130,17 +130,30 @@ fn unshadowed_light_integral(c: ShadingContext) -> vec3f {
     if all(k == vec3f(0.0)) {
         return vec3f(0.0);
     }
+    // Loops tested at their end (integrator.wgsl's `render` says why); an area light has a
+    // polygon.
     var sum = vec3f(0.0);
-    for (var li = 0u; li < light_count(); li++) {
-        let light = light_at(li);
-        if light.kind != LIGHT_AREA {
-            continue;
+    var li = 0u;
+    if light_count() > 0u {
+        loop {
+            let light = light_at(li);
+            if light.kind == LIGHT_AREA {
+                var psa = 0.0;
+                var i = 0u;
+                loop {
+                    psa += polygon_projected_solid_angle(emitter_polygon(light, i), light.double_sided != 0u, c.s.p, c.s.ns);
+                    i++;
+                    if i >= emitter_polygons(light) {
+                        break;
+                    }
+                }
+                sum += light.intensity * psa;
+            }
+            li++;
+            if li >= light_count() {
+                break;
+            }
         }
-        var psa = 0.0;
-        for (var i = 0u; i < emitter_polygons(light); i++) {
-            psa += polygon_projected_solid_angle(emitter_polygon(light, i), light.double_sided != 0u, c.s.p, c.s.ns);
-        }
-        sum += light.intensity * psa;
     }
     return k * sum;
 }
@@ -180,28 +193,46 @@ fn control_variate_direction_term(c: ShadingContext, d: DirectionSample, plan: S
     if all(k == vec3f(0.0)) || cos_i <= 0.0 || !(d.pdf > 0.0) {
         return vec3f(0.0);
     }
+    // Loops tested at their end, as in unshadowed_light_integral.
     var sum = vec3f(0.0);
-    for (var li = 0u; li < light_count(); li++) {
-        let light = light_at(li);
-        if light.kind != LIGHT_AREA {
-            continue;
-        }
-        for (var i = 0u; i < emitter_polygons(light); i++) {
-            let q = emitter_polygon(light, i);
-            let dist = polygon_crossing(c.s.p, d.wi, q);
-            if dist <= 0.0 || !emits_towards(light.double_sided != 0u, cross(q.e1, q.e2), d.wi) {
-                continue;
-            }
-            var w = 1.0;
-            if d.mis && plan.n > 0u {
-                let v = TrianglePositions(q.tri.p0, q.tri.p0 + q.tri.e1, q.tri.p0 + q.tri.e2);
-                let p_light = area_light_pdf(li, c.s.p, v, c.s.p + dist * d.wi);
-                if p_light > 0.0 {
-                    w = mis_weight(f32(plan.m), d.pdf, f32(plan.n), p_light);
+    var li = 0u;
+    if light_count() > 0u {
+        loop {
+            let light = light_at(li);
+            if light.kind == LIGHT_AREA {
+                var i = 0u;
+                loop {
+                    sum += polygon_direction_weight(c, d, plan, li, emitter_polygon(light, i)) * light.intensity;
+                    i++;
+                    if i >= emitter_polygons(light) {
+                        break;
+                    }
                 }
             }
-            sum += w * light.intensity;
+            li++;
+            if li >= light_count() {
+                break;
+            }
         }
     }
     return -(k * cos_i / d.pdf) * sum;
+}
+
+// The MIS weight direction_sample_value gives a hit on polygon q of light li where the direction
+// sample's ray crosses q towards its emitting side, else 0.
+fn polygon_direction_weight(c: ShadingContext, d: DirectionSample, plan: SamplePlan, li: u32, q: EmitterPolygon) -> f32 {
+    let light = light_at(li);
+    let dist = polygon_crossing(c.s.p, d.wi, q);
+    if dist <= 0.0 || !emits_towards(light.double_sided != 0u, cross(q.e1, q.e2), d.wi) {
+        return 0.0;
+    }
+    var w = 1.0;
+    if d.mis && plan.n > 0u {
+        let v = TrianglePositions(q.tri.p0, q.tri.p0 + q.tri.e1, q.tri.p0 + q.tri.e2);
+        let p_light = area_light_pdf(li, c.s.p, v, c.s.p + dist * d.wi);
+        if p_light > 0.0 {
+            w = mis_weight(f32(plan.m), d.pdf, f32(plan.n), p_light);
+        }
+    }
+    return w;
 }

@@ -256,8 +256,14 @@ fn estimate_light_samples(c: ShadingContext, plan: SamplePlan, stream: ptr<funct
     if AT_MOST_ONE_LIGHT_REQUEST {
         sum = light_request_value(c, plan, 0u, stream, rays);
     } else {
-        for (var k = 0u; k < total; k++) {
+        // Tested at its end (`render` says why); total is at least 1 here.
+        var k = 0u;
+        loop {
             sum += light_request_value(c, plan, k, stream, rays);
+            k++;
+            if k >= total {
+                break;
+            }
         }
     }
     return sum / f32(plan.n);
@@ -459,42 +465,53 @@ fn glossy_lobe_outsamples_lights(c: ShadingContext) -> bool {
     // the count: a light fails the test below wherever m p_peak Ω_max <= n P(light), with
     // Ω_max = 2π r² / dist² >= Ω, which needs no square root (most lights, on rough lobes).
     let m_peak = m_lobe * smith_g1(c.wo.z, c.bsdf.alpha) / (4.0 * c.wo.z * PI * c.bsdf.alpha * c.bsdf.alpha);
-    for (var li = 0u; li < light_count(); li++) {
-        let light = light_at(li);
-        if light.kind != LIGHT_AREA {
-            continue;
-        }
-        let d = light.position - c.s.p;
-        let dist_sq = dot(d, d);
-        let r_sq = light.bound_radius * light.bound_radius;
-        if dist_sq <= r_sq {
+    // Tested at its end (`render` says why); HAS_AREA_LIGHTS, so there is a light.
+    var li = 0u;
+    loop {
+        if glossy_lobe_outsamples_light(c, li, axis, n_light, m_peak, m_lobe) {
             return true;
         }
-        // Below the horizon, or too small for the lobe even at its peak.
-        if dot(d, c.s.ns) <= -light.bound_radius || m_peak * 2.0 * PI * r_sq <= n_light * light_selection_pdf(li) * dist_sq {
-            continue;
-        }
-        let dist = sqrt(dist_sq);
-        let to_centre = d / dist;
-        let sin_t = light.bound_radius / dist;
-        let cos_t = sqrt(max(0.0, 1.0 - sin_t * sin_t));
-        // Solid angle of the cone, 2π(1 − cos θ) written without the cancellation.
-        let omega = 2.0 * PI * sin_t * sin_t / (1.0 + cos_t);
-        var nearest = axis;
-        let cos_phi = dot(axis, to_centre);
-        if cos_phi < cos_t {
-            let perp = axis - cos_phi * to_centre;
-            let len = length(perp);
-            nearest = select(to_centre, cos_t * to_centre + (sin_t / len) * perp, len > 0.0);
-        }
-        let wi = frame_to_local(c.frame, nearest);
-        let p_lobe = select(0.0, ggx_vndf_pdf(c.wo, wi, c.bsdf.alpha), wi.z > 0.0);
-        let p_light = light_selection_pdf(li) / max(omega, 1.0e-30);
-        if m_lobe * p_lobe > n_light * p_light {
-            return true;
+        li++;
+        if li >= light_count() {
+            break;
         }
     }
     return false;
+}
+
+// The test above for light li: false for lights other than area lights.
+fn glossy_lobe_outsamples_light(c: ShadingContext, li: u32, axis: vec3f, n_light: f32, m_peak: f32, m_lobe: f32) -> bool {
+    let light = light_at(li);
+    if light.kind != LIGHT_AREA {
+        return false;
+    }
+    let d = light.position - c.s.p;
+    let dist_sq = dot(d, d);
+    let r_sq = light.bound_radius * light.bound_radius;
+    if dist_sq <= r_sq {
+        return true;
+    }
+    // Below the horizon, or too small for the lobe even at its peak.
+    if dot(d, c.s.ns) <= -light.bound_radius || m_peak * 2.0 * PI * r_sq <= n_light * light_selection_pdf(li) * dist_sq {
+        return false;
+    }
+    let dist = sqrt(dist_sq);
+    let to_centre = d / dist;
+    let sin_t = light.bound_radius / dist;
+    let cos_t = sqrt(max(0.0, 1.0 - sin_t * sin_t));
+    // Solid angle of the cone, 2π(1 − cos θ) written without the cancellation.
+    let omega = 2.0 * PI * sin_t * sin_t / (1.0 + cos_t);
+    var nearest = axis;
+    let cos_phi = dot(axis, to_centre);
+    if cos_phi < cos_t {
+        let perp = axis - cos_phi * to_centre;
+        let len = length(perp);
+        nearest = select(to_centre, cos_t * to_centre + (sin_t / len) * perp, len > 0.0);
+    }
+    let wi = frame_to_local(c.frame, nearest);
+    let p_lobe = select(0.0, ggx_vndf_pdf(c.wo, wi, c.bsdf.alpha), wi.z > 0.0);
+    let p_light = light_selection_pdf(li) / max(omega, 1.0e-30);
+    return m_lobe * p_lobe > n_light * p_light;
 }
 
 // MIS per lobe (mis-lobes): the diffuse lobe is estimated by light sampling alone, the glossy
@@ -641,9 +658,16 @@ fn estimate_radiance(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<fu
                 taken += 1u;
             }
         } else {
-            while !next.d.valid && taken < plan.m + cone_passes(plan) {
-                next = next_direction_sample(c, plan, taken, light_dim, stream, rays, &e);
-                taken += 1u;
+            // Tested at its end (`render` says why).
+            let end = plan.m + cone_passes(plan);
+            if taken < end {
+                loop {
+                    next = next_direction_sample(c, plan, taken, light_dim, stream, rays, &e);
+                    taken += 1u;
+                    if next.d.valid || taken >= end {
+                        break;
+                    }
+                }
             }
         }
         d = next.d;

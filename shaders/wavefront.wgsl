@@ -91,8 +91,16 @@ fn screen_direction_samples(c: ShadingContext, plan: SamplePlan, stream: SampleS
             screen = screen_direction_sample(c, plan, &s, screen);
         }
     } else {
-        for (var k = 0u; k < plan.m; k++) {
-            screen = screen_direction_sample(c, plan, &s, screen);
+        // Tested at its end (integrator.wgsl's `render` says why).
+        var k = 0u;
+        if plan.m > 0u {
+            loop {
+                screen = screen_direction_sample(c, plan, &s, screen);
+                k++;
+                if k >= plan.m {
+                    break;
+                }
+            }
         }
     }
     if plan.m > 0u {
@@ -137,36 +145,15 @@ struct DirectionEstimates {
 // start at `light_dim`.
 fn estimate_direction_samples(c: ShadingContext, plan: SamplePlan, light_dim: u32, stream: ptr<function, SampleStream>, rays: ptr<function, u32>) -> DirectionEstimates {
     var sum = DirectionEstimates(vec3f(0.0), vec3f(0.0));
-    for (var k = 0u; k < plan.m + cone_passes(plan); k++) {
-        var d: DirectionSample;
-        if k < plan.m {
-            d = sample_direction(c, stream);
-        } else {
-            d = cone_light_sample(c, plan, k - plan.m, light_dim, *stream);
-        }
-        if uses_control_variate() && k < plan.m {
-            sum.brdf += control_variate_direction_term(c, d, plan);
-        }
-        if !d.valid {
-            continue;
-        }
-        let origin = offset_ray_origin(c.s.p, c.s.ng, d.wi);
-        let t_max = direction_reach(d, origin);
-        if t_max <= 0.0 {
-            continue;
-        }
-        if EMITTER_LIST && d.light == NO_LIGHT {
-            sum.brdf += direction_sample_to_emitters(c, d, plan, origin, t_max, rays);
-            continue;
-        }
-        *rays += 1u;
-        let hit = trace_closest(origin, d.wi, t_max);
-        if hit.found {
-            let e = surface_at(hit, d.wi);
-            if CONE_SAMPLING && d.light != NO_LIGHT {
-                sum.light += cone_sample_value(d, e);
-            } else {
-                sum.brdf += direction_sample_value(c, d, plan, hit.tri, e);
+    // Tested at its end (integrator.wgsl's `render` says why).
+    let end = plan.m + cone_passes(plan);
+    var k = 0u;
+    if k < end {
+        loop {
+            add_direction_sample(c, plan, k, light_dim, stream, rays, &sum);
+            k++;
+            if k >= end {
+                break;
             }
         }
     }
@@ -177,6 +164,41 @@ fn estimate_direction_samples(c: ShadingContext, plan: SamplePlan, light_dim: u3
         sum.light /= f32(plan.n);
     }
     return sum;
+}
+
+// Direction sample k of estimate_direction_samples, traced and added to `sum`.
+fn add_direction_sample(c: ShadingContext, plan: SamplePlan, k: u32, light_dim: u32, stream: ptr<function, SampleStream>, rays: ptr<function, u32>, sum: ptr<function, DirectionEstimates>) {
+    var d: DirectionSample;
+    if k < plan.m {
+        d = sample_direction(c, stream);
+    } else {
+        d = cone_light_sample(c, plan, k - plan.m, light_dim, *stream);
+    }
+    if uses_control_variate() && k < plan.m {
+        (*sum).brdf += control_variate_direction_term(c, d, plan);
+    }
+    if !d.valid {
+        return;
+    }
+    let origin = offset_ray_origin(c.s.p, c.s.ng, d.wi);
+    let t_max = direction_reach(d, origin);
+    if t_max <= 0.0 {
+        return;
+    }
+    if EMITTER_LIST && d.light == NO_LIGHT {
+        (*sum).brdf += direction_sample_to_emitters(c, d, plan, origin, t_max, rays);
+        return;
+    }
+    *rays += 1u;
+    let hit = trace_closest(origin, d.wi, t_max);
+    if hit.found {
+        let e = surface_at(hit, d.wi);
+        if CONE_SAMPLING && d.light != NO_LIGHT {
+            (*sum).light += cone_sample_value(d, e);
+        } else {
+            (*sum).brdf += direction_sample_value(c, d, plan, hit.tri, e);
+        }
+    }
 }
 
 @compute @workgroup_size(64, 1, 1)
