@@ -92,7 +92,6 @@ fn emitter_polygons(light: Light) -> u32 {
     return select(light.tri_count, 1u, parallelogram_sampled(light));
 }
 
-
 // Polygon i of a light: a corner and the edges to its two neighbours, a parallelogram (o, o + e1,
 // o + e1 + e2, o + e2) or a triangle (p0, p0 + e1, p0 + e2); the triangle it lies on, for its pdf.
 struct EmitterPolygon {
@@ -133,8 +132,8 @@ fn unshadowed_light_integral(c: ShadingContext) -> vec3f {
     // Loops tested at their end (integrator.wgsl's `render` says why); an area light has a
     // polygon.
     var sum = vec3f(0.0);
-    var li = 0u;
     if light_count() > 0u {
+        var li = 0u;
         loop {
             let light = light_at(li);
             if light.kind == LIGHT_AREA {
@@ -195,14 +194,14 @@ fn control_variate_direction_term(c: ShadingContext, d: DirectionSample, plan: S
     }
     // Loops tested at their end, as in unshadowed_light_integral.
     var sum = vec3f(0.0);
-    var li = 0u;
     if light_count() > 0u {
+        var li = 0u;
         loop {
             let light = light_at(li);
             if light.kind == LIGHT_AREA {
                 var i = 0u;
                 loop {
-                    sum += polygon_direction_weight(c, d, plan, li, emitter_polygon(light, i)) * light.intensity;
+                    sum += polygon_direction_weight(c, d, plan, li, light, emitter_polygon(light, i)) * light.intensity;
                     i++;
                     if i >= emitter_polygons(light) {
                         break;
@@ -218,10 +217,9 @@ fn control_variate_direction_term(c: ShadingContext, d: DirectionSample, plan: S
     return -(k * cos_i / d.pdf) * sum;
 }
 
-// The MIS weight direction_sample_value gives a hit on polygon q of light li where the direction
-// sample's ray crosses q towards its emitting side, else 0.
-fn polygon_direction_weight(c: ShadingContext, d: DirectionSample, plan: SamplePlan, li: u32, q: EmitterPolygon) -> f32 {
-    let light = light_at(li);
+// The MIS weight direction_sample_value gives a hit on polygon q of light li (`light`) where the
+// direction sample's ray crosses q towards its emitting side, else 0.
+fn polygon_direction_weight(c: ShadingContext, d: DirectionSample, plan: SamplePlan, li: u32, light: Light, q: EmitterPolygon) -> f32 {
     let dist = polygon_crossing(c.s.p, d.wi, q);
     if dist <= 0.0 || !emits_towards(light.double_sided != 0u, cross(q.e1, q.e2), d.wi) {
         return 0.0;

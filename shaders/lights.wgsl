@@ -184,7 +184,7 @@ fn select_light_by_power(u: f32) -> DiscretePick {
 }
 
 // How many lights loops over the lights visit: with SINGLE_LIGHT the constant 1, so that the
-// compiler unrolls them away (on Mesa 22.3 a loop costs one pass more than it iterates).
+// compiler unrolls them away (Mesa 22.3 keeps a loop of one trip otherwise, with its overhead).
 fn light_count() -> u32 {
     return select(frame.light_count, 1u, SINGLE_LIGHT);
 }
@@ -495,8 +495,8 @@ fn emitter_reach(origin: vec3f, dir: vec3f) -> f32 {
     }
     var reach = 0.0;
     // Tested at its end (integrator.wgsl's `render` says why).
-    var li = 0u;
-    if li < light_count() {
+    if light_count() > 0u {
+        var li = 0u;
         loop {
             let light = light_at(li);
             if light.kind == LIGHT_AREA {

@@ -249,14 +249,14 @@ fn trace_occluded(origin: vec3f, dir: vec3f, t_max: f32, skip: u32) -> bool {
     loop {
         if position < LEAF_BIT {
             loop {
-            let lights_01 = bvh_nodes[position].lights_01;
-            let lights_23 = bvh_nodes[position].lights_23;
-            let tags = vec4u(lights_01 & 0xffffu, lights_01 >> 16u, lights_23 & 0xffffu, lights_23 >> 16u);
-            let t = child_distances(position, origin, inv_dir, t_max);
-            position = next_node(position, select(t, vec4f(RAY_INF), tags == vec4u(skipped)), &stack);
-            if position >= LEAF_BIT {
-                break;
-            }
+                let lights_01 = bvh_nodes[position].lights_01;
+                let lights_23 = bvh_nodes[position].lights_23;
+                let tags = vec4u(lights_01 & 0xffffu, lights_01 >> 16u, lights_23 & 0xffffu, lights_23 >> 16u);
+                let t = child_distances(position, origin, inv_dir, t_max);
+                position = next_node(position, select(t, vec4f(RAY_INF), tags == vec4u(skipped)), &stack);
+                if position >= LEAF_BIT {
+                    break;
+                }
             }
         }
         if position == NO_NODE {

@@ -92,8 +92,8 @@ fn screen_direction_samples(c: ShadingContext, plan: SamplePlan, stream: SampleS
         }
     } else {
         // Tested at its end (integrator.wgsl's `render` says why).
-        var k = 0u;
         if plan.m > 0u {
+            var k = 0u;
             loop {
                 screen = screen_direction_sample(c, plan, &s, screen);
                 k++;
@@ -147,8 +147,8 @@ fn estimate_direction_samples(c: ShadingContext, plan: SamplePlan, light_dim: u3
     var sum = DirectionEstimates(vec3f(0.0), vec3f(0.0));
     // Tested at its end (integrator.wgsl's `render` says why).
     let end = plan.m + cone_passes(plan);
-    var k = 0u;
-    if k < end {
+    if end > 0u {
+        var k = 0u;
         loop {
             add_direction_sample(c, plan, k, light_dim, stream, rays, &sum);
             k++;
