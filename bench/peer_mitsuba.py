@@ -140,6 +140,7 @@ def main():
     budgets = [1 << k for k in range(20) if (1 << k) <= args.max_spp]
     rows = []
     summary = []
+    broken = []
     for scene in args.scenes:
         name = Path(scene).stem
         # --veach-control-variate where the scene takes it (`veach info` says; the Veach scene's
@@ -206,6 +207,16 @@ def main():
             return (med(r[4] for r in pts), med(r[5] for r in pts), med(1.0 / (r[4] * r[5]) for r in pts),
                     med(r[6] for r in pts), med(1.0 / (r[4] * r[6]) for r in pts))
 
+        # An unbiased estimate's relMSE falls as 1/spp. Where veach's does not fall at all, its
+        # images are not the scene's (a throwaway build left in target/release once timed a kernel
+        # that drew nothing, at an efficiency of 0.00x): say so rather than print tables of it.
+        if len(budgets) > 1 and budgets[-1] >= 8:
+            first, last = medians("veach", budgets[0])[1], medians("veach", budgets[-1])[1]
+            if not last < 0.25 * first:
+                broken.append(f"{name}: veach's relMSE goes from {first:.3e} at {budgets[0]} spp to {last:.3e} at "
+                              f"{budgets[-1]}; it does not converge to the reference: is {args.veach} the build "
+                              f"you meant to measure?")
+
         for sampler in samplers:
             for spp in budgets:
                 vt, vr, ve, _, _ = medians("veach", spp)
@@ -233,6 +244,10 @@ def main():
                 continue
             print(f"| {s[1]} | {s[2]} | {s[3]:.3f} | {s[4]:.3e} | {s[5]:.3g} | {s[6]:.3f} | {s[7]:.3e} | {s[8]:.3g} "
                   f"| {s[9]:.2f} | {s[10]:.3e} | {s[11]:.2f} | {s[12]:.2e} |")
+    for message in broken:
+        print(f"error: {message}", file=sys.stderr)
+    if broken:
+        sys.exit(1)
 
 
 if __name__ == "__main__":
