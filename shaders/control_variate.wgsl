@@ -99,16 +99,16 @@ struct EmitterPolygon {
     e1: vec3f,
     e2: vec3f,
     parallelogram: bool,
-    tri: EmitterTriangle,
+    tri: TrianglePositions,
 }
 
 fn emitter_polygon(light: Light, i: u32) -> EmitterPolygon {
-    let t = emitter_tris[light.first_tri + i];
+    let t = triangle_corners(light_triangle(light, i));
     if parallelogram_sampled(light) {
         let o = parallelogram_point(light, vec2f(0.0));
         return EmitterPolygon(o, parallelogram_point(light, vec2f(1.0, 0.0)) - o, parallelogram_point(light, vec2f(0.0, 1.0)) - o, true, t);
     }
-    return EmitterPolygon(t.p0, t.e1, t.e2, false, t);
+    return EmitterPolygon(t.p0, t.p1 - t.p0, t.p2 - t.p0, false, t);
 }
 
 // The projected solid angle about n of polygon q seen from x, clipped to the hemisphere above n:
@@ -226,8 +226,7 @@ fn polygon_direction_weight(c: ShadingContext, d: DirectionSample, plan: SampleP
     }
     var w = 1.0;
     if d.mis && plan.n > 0u {
-        let v = TrianglePositions(q.tri.p0, q.tri.p0 + q.tri.e1, q.tri.p0 + q.tri.e2);
-        let p_light = area_light_pdf(li, c.s.p, v, c.s.p + dist * d.wi);
+        let p_light = area_light_pdf(li, c.s.p, q.tri, c.s.p + dist * d.wi);
         if p_light > 0.0 {
             w = mis_weight(f32(plan.m), d.pdf, f32(plan.n), p_light);
         }

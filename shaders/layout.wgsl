@@ -210,16 +210,17 @@ struct Light {
     parallelogram: u32,
 }
 
-// A triangle of an area light, and one bucket of the light's alias table over its triangles by
-// area (crates/veach/src/alias.rs): the bucket keeps this triangle with probability alias_prob,
-// else gives emitter triangle `alias_index` (an index into emitter_tris).
+// Triangle i of an area light (an index into `triangles`, whose corners it has), and bucket i of
+// the light's alias table over its triangles by area (crates/veach/src/alias.rs): the bucket keeps
+// `triangle` with probability alias_prob, else gives `alias_triangle`. 16 bytes, without corners:
+// on CPU adapters a table of up to 4096 is a uniform array, where lavapipe loads a storage word
+// lane by lane (the Veach scene's 3,840 triangles: 0.72x the render time; docs/performance.md,
+// "Emitter triangles by their mesh triangle"); one load gives the bucket's whole choice.
 struct EmitterTriangle {
-    p0: vec3f,
     alias_prob: f32,
-    e1: vec3f,
-    alias_index: u32,
-    e2: vec3f,
-    light: u32,
+    triangle: u32,
+    alias_triangle: u32,
+    _pad0: u32,
 }
 
 // Light i chosen by power: its probability, and bucket i of the alias table over the lights.

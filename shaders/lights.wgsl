@@ -212,13 +212,17 @@ fn select_light(u: f32) -> DiscretePick {
     return DiscretePick(b.index, remap_below(b.frac, 1.0));
 }
 
-// An emitter triangle of `light` with probability proportional to its area, by the light's
-// alias table (as select_light_by_power); the index is into emitter_tris.
+// A triangle of `light` with probability proportional to its area, by the light's alias table (as
+// select_light_by_power); the index is into `triangles`.
 fn select_emitter_triangle(light: Light, u: f32) -> DiscretePick {
     let b = alias_bucket(u, light.tri_count);
-    let ti = light.first_tri + b.index;
-    let bucket = emitter_tris[ti];
-    return alias_pick(b, bucket.alias_prob, ti, bucket.alias_index);
+    let bucket = emitter_tris[light.first_tri + b.index];
+    return alias_pick(b, bucket.alias_prob, bucket.triangle, bucket.alias_triangle);
+}
+
+// Triangle i of `light` (an index into `triangles`).
+fn light_triangle(light: Light, i: u32) -> u32 {
+    return emitter_tris[light.first_tri + i].triangle;
 }
 
 // Does the light emit towards a receiver lying along -wi from a point with normal n_l?
@@ -269,21 +273,20 @@ fn parallelogram_sampled(light: Light) -> bool {
 // The point u of the unit square on the parallelogram spanned from corner k = parallelogram - 1 of
 // the light's first triangle by its edges to the two other corners; u.x + u.y <= 1 is that triangle.
 fn parallelogram_point(light: Light, u: vec2f) -> vec3f {
-    let t = emitter_tris[light.first_tri];
+    let t = triangle_corners(light_triangle(light, 0u));
     let k = light.parallelogram - 1u;
-    let c1 = t.p0 + t.e1;
-    let c2 = t.p0 + t.e2;
-    let o = select(select(c2, c1, k == 1u), t.p0, k == 0u);
+    let o = select(select(t.p2, t.p1, k == 1u), t.p0, k == 0u);
     // Corners k + 1 and k + 2 (mod 3).
-    let s0 = select(select(t.p0, c2, k == 1u), c1, k == 0u);
-    let s1 = select(select(c1, t.p0, k == 1u), c2, k == 0u);
+    let s0 = select(select(t.p0, t.p2, k == 1u), t.p1, k == 0u);
+    let s1 = select(select(t.p1, t.p0, k == 1u), t.p2, k == 0u);
     return o + u.x * (s0 - o) + u.y * (s1 - o);
 }
 
-// Barycentrics (b1, b2) of point y in the plane of emitter triangle `tri` (normal n = e1 × e2).
-fn triangle_barycentrics(tri: EmitterTriangle, n: vec3f, y: vec3f) -> vec2f {
-    let d = y - tri.p0;
-    let b = vec2f(dot(cross(d, tri.e2), n), dot(cross(tri.e1, d), n)) / dot(n, n);
+// Barycentrics (b1, b2) of point y in the plane of triangle v, whose edges from v.p0 are e1 and e2
+// (normal n = e1 × e2).
+fn triangle_barycentrics(v: TrianglePositions, e1: vec3f, e2: vec3f, n: vec3f, y: vec3f) -> vec2f {
+    let d = y - v.p0;
+    let b = vec2f(dot(cross(d, e2), n), dot(cross(e1, d), n)) / dot(n, n);
     return clamp(b, vec2f(0.0), vec2f(1.0));
 }
 
@@ -294,29 +297,32 @@ fn triangle_barycentrics(tri: EmitterTriangle, n: vec3f, y: vec3f) -> vec2f {
 fn sample_area_light(index: u32, light: Light, x: vec3f, u_light: vec2f) -> LightSample {
     let parallelogram = parallelogram_sampled(light);
     let pick = select_emitter_triangle(light, u_light.x);
-    // The parallelogram's second triangle is where u.x + u.y > 1 (parallelogram_point).
-    let ti = select(pick.index, light.first_tri + select(0u, 1u, u_light.x + u_light.y > 1.0), parallelogram);
+    var tri = pick.index;
+    if parallelogram {
+        // The parallelogram's second triangle is where u.x + u.y > 1 (parallelogram_point).
+        tri = light_triangle(light, select(0u, 1u, u_light.x + u_light.y > 1.0));
+    }
     let u = vec2f(pick.u, u_light.y);
-    let tri = emitter_tris[ti];
-    let p1 = tri.p0 + tri.e1;
-    let p2 = tri.p0 + tri.e2;
-    let n = cross(tri.e1, tri.e2);
+    let v = triangle_corners(tri);
+    let e1 = v.p1 - v.p0;
+    let e2 = v.p2 - v.p0;
+    let n = cross(e1, e2);
     let n_l = normalize(n);
     var b = sample_uniform_triangle(u);
-    var y = tri.p0 + b.x * tri.e1 + b.y * tri.e2;
+    var y = v.p0 + b.x * e1 + b.y * e2;
     if parallelogram {
         y = parallelogram_point(light, u_light);
-        b = triangle_barycentrics(tri, n, y);
+        b = triangle_barycentrics(v, e1, e2, n, y);
     }
-    let omega = spherical_sampling_solid_angle(x, tri.p0, p1, p2);
+    let omega = spherical_sampling_solid_angle(x, v.p0, v.p1, v.p2);
     var failed = false;
     if omega > 0.0 {
-        let w = sample_spherical_triangle(x, tri.p0, p1, p2, u);
+        let w = sample_spherical_triangle(x, v.p0, v.p1, v.p2, u);
         // The point where the direction meets the triangle's plane, and its barycentrics.
-        let t = dot(tri.p0 - x, n) / dot(w, n);
+        let t = dot(v.p0 - x, n) / dot(w, n);
         failed = all(w == vec3f(0.0)) || !(t > 0.0);
         y = x + t * w;
-        b = triangle_barycentrics(tri, n, y);
+        b = triangle_barycentrics(v, e1, e2, n, y);
     }
     let d = y - x;
     let dist_sq = dot(d, d);
@@ -328,7 +334,7 @@ fn sample_area_light(index: u32, light: Light, x: vec3f, u_light: vec2f) -> Ligh
     }
     // In front of the sampled triangle's plane, the receiver sees a convex light nowhere else.
     s.skip = select(0u, index + 1u, light.convex != 0u && dot(n_l, wi) < 0.0);
-    s.value = light.intensity * emitter_emission_texture(ti, b.x, b.y);
+    s.value = light.intensity * emitter_emission_texture(tri, b.x, b.y);
     if omega > 0.0 {
         s.pdf = (0.5 * length(n) / light.area) / omega;
     } else {

@@ -19,8 +19,6 @@ const UV_LIMIT: f32 = 1.0e5;
 @group(0) @binding(13) var<storage, read> vertex_uvs: array<vec4f>;
 @group(0) @binding(14) var<storage, read> texture_infos: array<TextureInfo>;
 @group(0) @binding(15) var<storage, read> texels: array<u32>;
-// The triangle (BVH order) of each emitter triangle, for emissive textures on light samples.
-@group(0) @binding(16) var<storage, read> emitter_source: array<u32>;
 
 fn srgb_to_linear(c: vec3f) -> vec3f {
     // IEC 61966-2-1.
@@ -104,12 +102,11 @@ fn emission_texture(m: Material, uvs: vec4f) -> vec3f {
     return vec3f(1.0);
 }
 
-// The emissive texture at barycentrics (b1, b2) of emitter triangle `emitter`.
-fn emitter_emission_texture(emitter: u32, b1: f32, b2: f32) -> vec3f {
+// The emissive texture at barycentrics (b1, b2) of triangle `tri`, a light sample's.
+fn emitter_emission_texture(tri: u32, b1: f32, b2: f32) -> vec3f {
     if !HAS_EMISSIVE_TEXTURE {
         return vec3f(1.0);
     }
-    let tri = emitter_source[emitter];
     return emission_texture(materials[triangles[tri].material], surface_uvs(tri, b1, b2));
 }
 

@@ -13,7 +13,7 @@ fn emission_texture(m: Material, uvs: vec4f) -> vec3f {
     return vec3f(1.0);
 }
 
-fn emitter_emission_texture(emitter: u32, b1: f32, b2: f32) -> vec3f {
+fn emitter_emission_texture(tri: u32, b1: f32, b2: f32) -> vec3f {
     return vec3f(1.0);
 }
 

@@ -354,8 +354,8 @@ pub struct GpuScene {
     /// The triangles compiled into the kernel instead of a BVH, for small scenes on CPU adapters
     /// (`BvhMemory::Auto`).
     pub(crate) baked: Option<Arc<BakedTriangles>>,
-    /// vertex_uvs, texture_infos, texels, emitter_source: only for scenes with textures.
-    pub(crate) texture_buffers: Option<[wgpu::Buffer; 4]>,
+    /// vertex_uvs, texture_infos, texels: only for scenes with textures.
+    pub(crate) texture_buffers: Option<[wgpu::Buffer; 3]>,
     pub(crate) light_count: u32,
     pub(crate) emitter_bound: ([f32; 3], f32),
     pub(crate) emitter_box: ([f32; 3], [f32; 3]),
@@ -653,7 +653,6 @@ impl Renderer {
                 storage_buffer(device, "vertex_uvs", &t.vertex_uvs),
                 storage_buffer(device, "texture_infos", &t.texture_infos),
                 storage_buffer(device, "texels", &t.texels),
-                storage_buffer(device, "emitter_source", &t.emitter_source),
             ]
         });
         stats.gpu_scene_bytes = buffers.iter().chain(texture_buffers.iter().flatten()).map(|b| b.size()).sum();
@@ -709,9 +708,9 @@ impl Renderer {
             (_, false) => None,
             (Some(t), true) => Some(t),
             (None, true) => {
-                // One zeroed element of the largest of the four element types (16 bytes).
+                // One zeroed element of the largest of the three element types (16 bytes).
                 placeholders =
-                    [0u32; 4].map(|_| storage_buffer::<layout::TextureInfo>(&self.gpu.device, "no textures", &[]));
+                    [0u32; 3].map(|_| storage_buffer::<layout::TextureInfo>(&self.gpu.device, "no textures", &[]));
                 Some(&placeholders)
             }
         };

@@ -12,10 +12,10 @@ pub const SCENE_COUNT: u32 = 7;
 /// Bindings 8..=12: accum, accum_sq, counters, aov_light, aov_brdf (read-write storage).
 pub const OUTPUT_FIRST: u32 = 8;
 pub const OUTPUT_COUNT: u32 = 5;
-/// Bindings 13..=16, only in kernels with textures.wgsl: vertex_uvs, texture_infos, texels,
-/// emitter_source (read-only storage).
+/// Bindings 13..=15, only in kernels with textures.wgsl: vertex_uvs, texture_infos, texels
+/// (read-only storage).
 pub const TEXTURES_FIRST: u32 = 13;
-pub const TEXTURES_COUNT: u32 = 4;
+pub const TEXTURES_COUNT: u32 = 3;
 /// Wavefront kernels only: the deferred samples, their count and the indirect dispatch
 /// arguments of the kernel that takes them (read-write storage).
 pub const DEFERRED: u32 = 17;

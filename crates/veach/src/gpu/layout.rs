@@ -213,12 +213,12 @@ pub struct Light {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct EmitterTriangle {
-    pub p0: [f32; 3],
     pub alias_prob: f32,
-    pub e1: [f32; 3],
-    pub alias_index: u32,
-    pub e2: [f32; 3],
-    pub light: u32,
+    /// Indices into the triangles array (BVH order): the light's triangle i, and what bucket i of
+    /// its alias table gives with probability 1 - alias_prob.
+    pub triangle: u32,
+    pub alias_triangle: u32,
+    pub _pad0: u32,
 }
 
 #[repr(C)]
@@ -360,7 +360,7 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             round,
             parallelogram
         }),
-        layout!(EmitterTriangle { p0, alias_prob, e1, alias_index, e2, light }),
+        layout!(EmitterTriangle { alias_prob, triangle, alias_triangle }),
         layout!(LightPick { pdf, alias_prob, alias_index }),
         layout!(TestParams { routine, count, seed, light_index, wo, point, material }),
         layout!(PixelCounters { rays, nonfinite, truncated }),

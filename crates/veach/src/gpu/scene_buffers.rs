@@ -37,7 +37,6 @@ pub struct TextureArrays {
     pub texture_infos: Vec<layout::TextureInfo>,
     /// RGBA8 texels of every texture, one u32 each (red in the low byte, as unpack4x8unorm reads).
     pub texels: Vec<u32>,
-    pub emitter_source: Vec<u32>,
 }
 
 fn texture_ref(r: &Option<TextureRef>) -> layout::TextureRef {
@@ -52,11 +51,7 @@ fn texture_ref(r: &Option<TextureRef>) -> layout::TextureRef {
     }
 }
 
-fn texture_arrays(scene: &Scene, bvh: &Bvh, emitter_scene_tris: &[u32], vertex_uvs: Vec<[f32; 4]>) -> TextureArrays {
-    let mut position_in_bvh = vec![0u32; scene.triangles.len()];
-    for (i, &t) in bvh.order.iter().enumerate() {
-        position_in_bvh[t as usize] = i as u32;
-    }
+fn texture_arrays(scene: &Scene, vertex_uvs: Vec<[f32; 4]>) -> TextureArrays {
     let mut texture_infos = Vec::new();
     let mut texels = Vec::new();
     for t in &scene.textures {
@@ -68,8 +63,7 @@ fn texture_arrays(scene: &Scene, bvh: &Bvh, emitter_scene_tris: &[u32], vertex_u
         });
         texels.extend(t.texels.iter().map(|&c| u32::from_le_bytes(c)));
     }
-    let emitter_source = emitter_scene_tris.iter().map(|&t| position_in_bvh[t as usize]).collect();
-    TextureArrays { vertex_uvs, texture_infos, texels, emitter_source }
+    TextureArrays { vertex_uvs, texture_infos, texels }
 }
 
 fn luminance(c: Vec3) -> f32 {
@@ -164,6 +158,11 @@ pub fn round_light_sphere(scene: &Scene, triangles: &[u32]) -> Option<(Vec3, f32
 }
 
 pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) -> SceneArrays {
+    // Scene triangle t is triangles[position_in_bvh[t]] on the GPU.
+    let mut position_in_bvh = vec![0u32; scene.triangles.len()];
+    for (i, &t) in bvh.order.iter().enumerate() {
+        position_in_bvh[t as usize] = i as u32;
+    }
     let mut triangle_light = vec![NO_LIGHT; scene.triangles.len()];
     let mut lights = Vec::with_capacity(scene.lights.len());
     let mut emitter_tris = Vec::new();
@@ -184,18 +183,14 @@ pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) ->
                 g.position = centre.to_array();
                 g.bound_radius = radius;
                 let areas: Vec<f64> = triangles.iter().map(|&t| scene.triangles[t as usize].area() as f64).collect();
-                let first = emitter_tris.len() as u32;
                 for (&t, bucket) in triangles.iter().zip(alias_table(&areas)) {
-                    let tri = &scene.triangles[t as usize];
                     triangle_light[t as usize] = li as u32;
                     emitter_scene_tris.push(t);
                     emitter_tris.push(layout::EmitterTriangle {
-                        p0: tri.p[0].to_array(),
                         alias_prob: bucket.prob,
-                        e1: (tri.p[1] - tri.p[0]).to_array(),
-                        alias_index: first + bucket.alias,
-                        e2: (tri.p[2] - tri.p[0]).to_array(),
-                        light: li as u32,
+                        triangle: position_in_bvh[t as usize],
+                        alias_triangle: position_in_bvh[triangles[bucket.alias as usize] as usize],
+                        ..Default::default()
                     });
                 }
             }
@@ -283,7 +278,7 @@ pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) ->
             ..Default::default()
         })
         .collect();
-    let textures = with_uvs.then(|| texture_arrays(scene, bvh, &emitter_scene_tris, vertex_uvs));
+    let textures = with_uvs.then(|| texture_arrays(scene, vertex_uvs));
 
     SceneArrays {
         bvh_nodes: encode_bvh_nodes(&bvh.nodes, &node_lights(bvh, &triangle_light, &convex)),
