@@ -105,8 +105,9 @@ struct EmitterPolygon {
 fn emitter_polygon(light: Light, i: u32) -> EmitterPolygon {
     let t = triangle_corners(light_triangle(light, i));
     if parallelogram_sampled(light) {
-        let o = parallelogram_point(light, vec2f(0.0));
-        return EmitterPolygon(o, parallelogram_point(light, vec2f(1.0, 0.0)) - o, parallelogram_point(light, vec2f(0.0, 1.0)) - o, true, t);
+        // t is the first triangle's: a parallelogram is one polygon (emitter_polygons).
+        let o = parallelogram_point_on(light, t, vec2f(0.0));
+        return EmitterPolygon(o, parallelogram_point_on(light, t, vec2f(1.0, 0.0)) - o, parallelogram_point_on(light, t, vec2f(0.0, 1.0)) - o, true, t);
     }
     return EmitterPolygon(t.p0, t.p1 - t.p0, t.p2 - t.p0, false, t);
 }

@@ -273,7 +273,11 @@ fn parallelogram_sampled(light: Light) -> bool {
 // The point u of the unit square on the parallelogram spanned from corner k = parallelogram - 1 of
 // the light's first triangle by its edges to the two other corners; u.x + u.y <= 1 is that triangle.
 fn parallelogram_point(light: Light, u: vec2f) -> vec3f {
-    let t = triangle_corners(light_triangle(light, 0u));
+    return parallelogram_point_on(light, triangle_corners(light_triangle(light, 0u)), u);
+}
+
+// The same, given the corners t of the light's first triangle.
+fn parallelogram_point_on(light: Light, t: TrianglePositions, u: vec2f) -> vec3f {
     let k = light.parallelogram - 1u;
     let o = select(select(t.p2, t.p1, k == 1u), t.p0, k == 0u);
     // Corners k + 1 and k + 2 (mod 3).
