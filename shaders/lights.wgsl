@@ -451,11 +451,11 @@ fn area_light_direction_pdf(index: u32, x: vec3f, v: TrianglePositions, y: vec3f
     let n = cross(v.p1 - v.p0, v.p2 - v.p0);
     let omega = spherical_sampling_solid_angle(x, v.p0, v.p1, v.p2);
     if omega > 0.0 {
-        return (0.5 * length(n) / light_at(index).area) / omega;
+        return (0.5 * length(n) / light.area) / omega;
     }
     let d = y - x;
     let cos_l = dot(normalize(n), normalize(d));
-    return area_to_solid_angle_pdf(dot(d, d), cos_l, light_at(index).area);
+    return area_to_solid_angle_pdf(dot(d, d), cos_l, light.area);
 }
 
 // emitter_reach looks at the lights one by one up to this many; past it, at one sphere and one box
