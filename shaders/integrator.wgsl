@@ -65,7 +65,7 @@ fn surface_at(hit: Hit, ray_dir: vec3f) -> SurfaceHit {
     if dot(ns, -ray_dir) <= 0.0 {
         ns = ng;
     }
-    return SurfaceHit(p, ng, ns, front, t.material, triangle_lights[hit.tri], uvs);
+    return SurfaceHit(p, ng, ns, front, t.material, triangle_light(hit.tri), uvs);
 }
 
 // Radiance a hit surface emits back along the ray: one-sided unless the material is doubleSided.

@@ -271,8 +271,15 @@ fn load_frame() {}
 @group(0) @binding(2) var<storage, read> vertices: array<Vertex>;
 @group(0) @binding(3) var<storage, read> triangles: array<IndexedTriangle>;
 // The index into `lights` of the area light each triangle belongs to, or NO_LIGHT (binding 23:
-// 8 to 22 are taken).
+// 8 to 22 are taken), read by triangle_light.
 @group(0) @binding(23) var<storage, read> triangle_lights: array<u32>;
+// On CPU adapters a scene of up to 16,384 triangles has them four to a vec4u in a uniform array
+// instead (shaders.rs rewrites this function and the line above): one gather where Mesa 22.3
+// loads a storage word lane by lane, once per hit (docs/performance.md, "Triangle lights in a
+// uniform array").
+fn triangle_light(tri: u32) -> u32 {
+    return triangle_lights[tri];
+}
 @group(0) @binding(4) var<storage, read> materials: array<Material>;
 @group(0) @binding(5) var<storage, read> lights: array<Light>;
 @group(0) @binding(6) var<storage, read> emitter_tris: array<EmitterTriangle>;

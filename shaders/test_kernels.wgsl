@@ -47,7 +47,7 @@ const TEST_TRACE_CAMERA: u32 = 41u;
 // found the way a BRDF sample finds it: by tracing the ray to the emitter.
 fn traced_light_pdf(x: vec3f, wi: vec3f) -> f32 {
     let hit = trace_closest(x, wi, RAY_INF);
-    if !hit.found || triangle_lights[hit.tri] != test.light_index {
+    if !hit.found || triangle_light(hit.tri) != test.light_index {
         return 0.0;
     }
     let v = triangle_positions(triangles[hit.tri]);

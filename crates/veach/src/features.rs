@@ -133,6 +133,9 @@ pub struct UniformArrays {
     pub lights: u32,
     pub emitter_tris: u32,
     pub light_picks: u32,
+    /// Binding 23's `triangle_lights` as a uniform array of this many vec4u, four triangles'
+    /// lights each (0: storage).
+    pub triangle_lights: u32,
 }
 
 impl UniformArrays {

@@ -470,6 +470,18 @@ fn pad_for_uniform<T: Default + Clone>(array: &mut Vec<T>, capacity: usize) -> u
     n as u32
 }
 
+/// `pad_for_uniform` for `triangle_lights`, four to a vec4u: the uniform array's length in vec4u
+/// where the lights fit `capacity` of them (padded with NO_LIGHT), or 0.
+fn pad_triangle_lights_for_uniform(lights: &mut Vec<u32>, capacity: usize) -> u32 {
+    let mut packed: Vec<[u32; 4]> =
+        lights.chunks(4).map(|c| std::array::from_fn(|k| c.get(k).copied().unwrap_or(layout::NO_LIGHT))).collect();
+    let n = pad_for_uniform(&mut packed, capacity);
+    if n > 0 {
+        lights.resize(4 * n as usize, layout::NO_LIGHT);
+    }
+    n
+}
+
 /// A headless render's first dispatch, in rays, with the default dispatch target: 2^21, eight
 /// times the viewer's (accumulation.rs, FIRST_DISPATCH_RAYS), about 10 passes over a 256×256 image
 /// at MIS 1 + 1, 0.15 s on lavapipe for the Cornell box and 0.6 s for the Veach scene. With the
@@ -618,6 +630,10 @@ impl Renderer {
                 self.uniform_capacity::<layout::EmitterTriangle>(memory),
             ),
             light_picks: pad_for_uniform(&mut arrays.light_picks, self.uniform_capacity::<layout::LightPick>(memory)),
+            triangle_lights: pad_triangle_lights_for_uniform(
+                &mut arrays.triangle_lights,
+                self.uniform_capacity::<[u32; 4]>(memory),
+            ),
         };
         let device = &self.gpu.device;
         let max_binding = device.limits().max_storage_buffer_binding_size;
@@ -645,7 +661,7 @@ impl Renderer {
             scene_buffer(device, "lights", &arrays.lights, also_uniform(uniform.lights)),
             scene_buffer(device, "emitter_tris", &arrays.emitter_tris, also_uniform(uniform.emitter_tris)),
             scene_buffer(device, "light_picks", &arrays.light_picks, also_uniform(uniform.light_picks)),
-            storage_buffer(device, "triangle_lights", &arrays.triangle_lights),
+            scene_buffer(device, "triangle_lights", &arrays.triangle_lights, also_uniform(uniform.triangle_lights)),
         ];
         // Scenes without textures upload none: their kernels do not bind any.
         let texture_buffers = arrays.textures.as_ref().map(|t| {

@@ -50,6 +50,10 @@ pub fn test_kernel_source(baked: Option<&BakedTriangles>, bvh_stack: u32) -> Str
 const FRAME_BINDING: &str = "var<storage, read> frame: FrameParams;";
 const FRAME_LOAD: &str = "fn load_frame() {}";
 
+/// How layout.wgsl declares `triangle_lights` and reads it (`triangle_light`).
+const TRIANGLE_LIGHTS_BINDING: &str = "var<storage, read> triangle_lights: array<u32>;";
+const TRIANGLE_LIGHT_READ: &str = "return triangle_lights[tri];";
+
 /// How traverse_bvh.wgsl declares its stack's size (`gpu::bvh_nodes::BVH_STACK_SIZE`).
 const STACK_SIZE_DECLARATION: &str = "const BVH_STACK_SIZE: u32 = ";
 
@@ -108,6 +112,16 @@ pub fn render_kernel_source(
         let storage = format!("var<storage, read> {name}: array<{element}>;");
         assert!(source.contains(&storage), "layout.wgsl declares {name} otherwise");
         source = source.replace(&storage, &format!("var<uniform> {name}: array<{element}, {n}>;"));
+    }
+    if uniform.triangle_lights > 0 {
+        assert!(
+            source.contains(TRIANGLE_LIGHTS_BINDING) && source.contains(TRIANGLE_LIGHT_READ),
+            "layout.wgsl declares triangle_lights otherwise"
+        );
+        let n = uniform.triangle_lights;
+        source = source
+            .replace(TRIANGLE_LIGHTS_BINDING, &format!("var<uniform> triangle_lights: array<vec4u, {n}>;"))
+            .replace(TRIANGLE_LIGHT_READ, "return triangle_lights[tri >> 2u][tri & 3u];");
     }
     if frame_copy {
         assert!(source.contains(FRAME_BINDING) && source.contains(FRAME_LOAD), "layout.wgsl declares frame otherwise");
@@ -175,6 +189,7 @@ mod tests {
             lights: 512,
             emitter_tris: 1024,
             light_picks: 4096,
+            triangle_lights: 1024,
         };
         // Two triangles with extreme corners: the largest f32, a subnormal, a negative zero.
         let vertices = [[f32::MAX, 0.0, -0.0], [1.0e-45, -1.0, 2.5], [0.1, -f32::MAX, 1.0]]

@@ -25,7 +25,8 @@ pub const DEFERRED_DISPATCH: u32 = 19;
 pub const TEST_PARAMS: u32 = 20;
 pub const TEST_INPUT: u32 = 21;
 pub const TEST_OUTPUT: u32 = 22;
-/// The scene's `triangle_lights` (read-only storage), after the others.
+/// The scene's `triangle_lights` (read-only storage, or uniform: `UniformArrays::triangle_lights`),
+/// after the others.
 pub const TRIANGLE_LIGHTS: u32 = 23;
 /// Storage buffers a render kernel binds (scene + outputs): a device must allow this many per stage.
 pub const STORAGE_BUFFERS_NEEDED: u32 = 1 + SCENE_COUNT + 1 + OUTPUT_COUNT + TEXTURES_COUNT;
@@ -68,7 +69,11 @@ pub fn layout_entries(extra: ExtraBindings) -> Vec<wgpu::BindGroupLayoutEntry> {
             _ => storage(b, true),
         }
     }));
-    entries.push(storage(TRIANGLE_LIGHTS, true));
+    entries.push(if uniform.triangle_lights > 0 {
+        entry(TRIANGLE_LIGHTS, wgpu::BufferBindingType::Uniform)
+    } else {
+        storage(TRIANGLE_LIGHTS, true)
+    });
     entries.extend((OUTPUT_FIRST..OUTPUT_FIRST + OUTPUT_COUNT).map(|b| storage(b, false)));
     if with_textures {
         entries.extend((TEXTURES_FIRST..TEXTURES_FIRST + TEXTURES_COUNT).map(|b| storage(b, true)));
