@@ -928,3 +928,31 @@ fn map_and_read<T>(device: &wgpu::Device, buffer: &wgpu::Buffer, read: impl FnOn
     buffer.unmap();
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::{layout, pad_triangle_lights_for_uniform};
+
+    /// Triangle t's light is word t % 4 of vec4u t / 4 (layout.wgsl's rewritten `triangle_light`),
+    /// the array padded with NO_LIGHT to a power of two of at least 64 vec4u; lights that do not
+    /// fit stay as they are, in storage.
+    #[test]
+    fn triangle_lights_pack_four_to_a_vec4u() {
+        let lights: Vec<u32> = (0..10).map(|t| if t % 3 == 0 { layout::NO_LIGHT } else { t * 7 }).collect();
+        let mut packed = lights.clone();
+        assert_eq!(pad_triangle_lights_for_uniform(&mut packed, 4096), 64);
+        assert_eq!(packed.len(), 4 * 64);
+        assert_eq!(&packed[..10], &lights[..]);
+        assert!(packed[10..].iter().all(|&l| l == layout::NO_LIGHT));
+        // 16,384 triangles fill 4096 vec4u; one more does not fit.
+        let mut full = vec![1u32; 4 * 4096];
+        assert_eq!(pad_triangle_lights_for_uniform(&mut full, 4096), 4096);
+        let mut over = vec![1u32; 4 * 4096 + 1];
+        assert_eq!(pad_triangle_lights_for_uniform(&mut over, 4096), 0);
+        assert_eq!(over.len(), 4 * 4096 + 1);
+        // No capacity (a GPU, or BvhMemory::Storage): storage.
+        let mut storage = lights.clone();
+        assert_eq!(pad_triangle_lights_for_uniform(&mut storage, 0), 0);
+        assert_eq!(storage, lights);
+    }
+}
