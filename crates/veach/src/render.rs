@@ -458,28 +458,34 @@ pub enum BvhMemory {
 /// vertices, triangles or light picks, 682 lights, 1365 emitter triangles).
 const UNIFORM_ARRAY_MAX_BYTES: u64 = 64 << 10;
 
-/// The length of `array` as a uniform array where it has at most `capacity` elements (padded to
-/// it with default elements), or 0. A power of two of at least 64, so that scenes of similar
-/// size share a kernel.
-fn pad_for_uniform<T: Default + Clone>(array: &mut Vec<T>, capacity: usize) -> u32 {
-    if array.len() > capacity {
+/// The length of an array of `len` elements as a uniform array where it has at most `capacity`,
+/// or 0 (it stays in storage). A power of two of at least 64, so that scenes of similar size share
+/// a kernel.
+fn uniform_length(len: usize, capacity: usize) -> usize {
+    if len > capacity {
         return 0;
     }
-    let n = array.len().next_power_of_two().max(64).min(capacity);
-    array.resize(n, T::default());
+    len.next_power_of_two().max(64).min(capacity)
+}
+
+/// `array` padded with default elements to its `uniform_length`, which is returned (0: storage,
+/// unpadded).
+fn pad_for_uniform<T: Default + Clone>(array: &mut Vec<T>, capacity: usize) -> u32 {
+    let n = uniform_length(array.len(), capacity);
+    if n > 0 {
+        array.resize(n, T::default());
+    }
     n as u32
 }
 
 /// `pad_for_uniform` for `triangle_lights`, four to a vec4u: the uniform array's length in vec4u
 /// where the lights fit `capacity` of them (padded with NO_LIGHT), or 0.
 fn pad_triangle_lights_for_uniform(lights: &mut Vec<u32>, capacity: usize) -> u32 {
-    let mut packed: Vec<[u32; 4]> =
-        lights.chunks(4).map(|c| std::array::from_fn(|k| c.get(k).copied().unwrap_or(layout::NO_LIGHT))).collect();
-    let n = pad_for_uniform(&mut packed, capacity);
+    let n = uniform_length(lights.len().div_ceil(4), capacity);
     if n > 0 {
-        lights.resize(4 * n as usize, layout::NO_LIGHT);
+        lights.resize(4 * n, layout::NO_LIGHT);
     }
-    n
+    n as u32
 }
 
 /// A headless render's first dispatch, in rays, with the default dispatch target: 2^21, eight
