@@ -84,6 +84,16 @@ fn a_bad_scene_is_a_clear_error_and_leaves_the_old_output_alone() {
     assert!(!o.status.success() && stderr(&o).contains(".exr"), "{}", stderr(&o));
     let o = veach(&["render", &assets("cornell-box.gltf"), "-o", out.to_str().unwrap(), "--camera", "nope"]);
     assert!(!o.status.success() && stderr(&o).contains("'camera'"), "{}", stderr(&o));
+    // An output that cannot be written: refused before the render, naming the file.
+    let o = veach(&["render", &assets("cornell-box.gltf"), "-o", "/no/such/dir/out.png"]);
+    let e = stderr(&o);
+    assert!(!o.status.success() && e.contains("/no/such/dir/out.png") && !e.contains("adapter:"), "{e}");
+    let folder = dir.join("folder.png");
+    std::fs::create_dir_all(&folder).unwrap();
+    let o = veach(&["render", &assets("cornell-box.gltf"), "-o", folder.to_str().unwrap()]);
+    assert!(!o.status.success() && stderr(&o).contains("is a directory"), "{}", stderr(&o));
+    let o = veach(&["render", &assets("cornell-box.gltf"), "-o", "x.png", "--stats", "/no/such/dir/s.json"]);
+    assert!(!o.status.success() && stderr(&o).contains("/no/such/dir/s.json"), "{}", stderr(&o));
     let o = veach(&["render", &assets("cornell-box.gltf"), "-o", out.to_str().unwrap(), "--spp", "0"]);
     assert!(!o.status.success() && stderr(&o).contains("--spp"), "{}", stderr(&o));
     // A setting the scene cannot take: refused before rendering, naming the scene and why.

@@ -574,6 +574,11 @@ fn render(args: RenderArgs) -> Result<()> {
     let settings = settings_from(&args)?;
     // Refuse an unknown output type before spending time on the render.
     veach::image_io::ImageFormat::from_path(&args.output)?;
+    // And an output (or --stats file) that could not be written.
+    veach::image_io::check_writable(&args.output)?;
+    if let Some(path) = &args.stats {
+        veach::image_io::check_writable(path)?;
+    }
     let say = |msg: String| {
         if !args.quiet {
             eprintln!("{msg}");

@@ -108,6 +108,19 @@ fn temp_path(path: &Path) -> PathBuf {
     path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
 }
 
+/// Checks, before a render spends its time, that `write_atomically` will be able to create its
+/// temporary file next to `path`: the directory exists and takes a new file. Leaves nothing behind.
+pub fn check_writable(path: &Path) -> Result<()> {
+    let err = |m: String| Error::Output { path: path.to_owned(), message: m };
+    if path.is_dir() {
+        return Err(err("is a directory; give a file name".into()));
+    }
+    let tmp = temp_path(path);
+    std::fs::File::create(&tmp).map_err(|e| err(format!("cannot write in its directory: {e}")))?;
+    let _ = std::fs::remove_file(&tmp);
+    Ok(())
+}
+
 /// Writes through `write` into a temporary file, then renames it over `path`.
 pub fn write_atomically(
     path: &Path,
