@@ -438,9 +438,14 @@ fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
         Some(t) if !(t.is_finite() && t > 0.0) => {
             bail!("--time-limit must be a positive number of seconds")
         }
-        Some(t) => Some(Duration::from_secs_f64(t)),
+        Some(t) => {
+            Some(Duration::try_from_secs_f64(t).map_err(|_| anyhow::anyhow!("--time-limit {t}: too many seconds"))?)
+        }
         None => None,
     };
+    if !args.exposure.is_finite() {
+        bail!("--exposure must be a finite number of stops");
+    }
     let spp = match (args.spp, time_limit) {
         (Some(0), _) => bail!("--spp must be at least 1"),
         (Some(n), _) => n,
@@ -491,6 +496,9 @@ fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
 fn view(args: ViewArgs) -> Result<()> {
     if args.width == 0 || args.height == 0 {
         bail!("--width and --height must be at least 1");
+    }
+    if !args.exposure.is_finite() {
+        bail!("--exposure must be a finite number of stops");
     }
     if let Some(path) = &args.screenshot
         && path.extension().and_then(|e| e.to_str()).is_none_or(|e| !e.eq_ignore_ascii_case("png"))
@@ -772,6 +780,11 @@ fn scale(args: ScaleArgs) -> Result<()> {
     Ok(())
 }
 
+/// Whether `t` seconds make a `Duration` (finite, not negative, not beyond u64 seconds).
+fn seconds(t: f64) -> bool {
+    Duration::try_from_secs_f64(t).is_ok()
+}
+
 fn bench(args: BenchArgs) -> Result<()> {
     use veach::bench::Budget;
     use veach::bench_run::{BenchConfig, bench_scene, bench_units, csv, slope_warnings};
@@ -779,8 +792,8 @@ fn bench(args: BenchArgs) -> Result<()> {
         bail!("--width, --height, --max-spp and --seeds must be at least 1");
     }
     let budgets: Vec<Budget> = if args.time_budgets {
-        if !(args.min_seconds > 0.0 && args.max_seconds >= args.min_seconds) {
-            bail!("--min-seconds must be positive and at most --max-seconds");
+        if !(args.min_seconds > 0.0 && args.max_seconds >= args.min_seconds && seconds(args.max_seconds)) {
+            bail!("--min-seconds must be positive and at most --max-seconds, a finite number of seconds");
         }
         std::iter::successors(Some(args.min_seconds), |t| Some(t * 2.0))
             .take_while(|t| *t <= args.max_seconds * 1.0001)
@@ -792,6 +805,9 @@ fn bench(args: BenchArgs) -> Result<()> {
             .map(Budget::Spp)
             .collect()
     };
+    if args.equal_time.is_some_and(|t| !(t > 0.0 && seconds(t))) {
+        bail!("--equal-time must be a positive, finite number of seconds");
+    }
     if args.strategies.as_deref().is_some_and(|s| s.split(',').all(|n| n.trim().is_empty())) {
         bail!("--strategies names no strategy");
     }
