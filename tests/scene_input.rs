@@ -196,3 +196,18 @@ fn the_gltf_validator_corpus_never_panics() {
     }
     eprintln!("glTF-Validator corpus: {} files, {ok} loaded, {err} rejected with an error", files.len());
 }
+
+/// Emission so bright that a sample's square overflows f32 renders dark (those samples are
+/// dropped): the loader says so, naming the material, and stays quiet at ordinary levels.
+#[test]
+fn emission_beyond_f32_sums_is_a_warning_naming_the_material() {
+    let mut v = triangle_json();
+    v["materials"][0]["emissiveFactor"] = json!([1.0, 1.0, 1.0]);
+    v["materials"][0]["extensions"] = json!({ "KHR_materials_emissive_strength": { "emissiveStrength": 1e20 } });
+    v["extensionsUsed"] = json!(["KHR_materials_emissive_strength"]);
+    let scene = veach::load_gltf(&write_json("too-bright.gltf", &v)).unwrap();
+    assert!(scene.warnings.iter().any(|w| w.contains("material 'grey'") && w.contains("1e20")), "{:?}", scene.warnings);
+    v["materials"][0]["extensions"]["KHR_materials_emissive_strength"]["emissiveStrength"] = json!(1e9);
+    let scene = veach::load_gltf(&write_json("bright.gltf", &v)).unwrap();
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+}

@@ -710,7 +710,7 @@ fn render(args: RenderArgs) -> Result<()> {
         render_s,
         if render_s > 0.0 { out.rays as f64 / render_s / 1e6 } else { 0.0 },
         if out.nonfinite_samples > 0 {
-            format!(", {} non-finite samples dropped", out.nonfinite_samples)
+            format!(", {} samples dropped (not finite, or their square overflows f32)", out.nonfinite_samples)
         } else {
             String::new()
         }

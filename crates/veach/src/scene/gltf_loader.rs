@@ -76,7 +76,11 @@ fn load_gltf_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
     // Material i of the file is materials[i]; the default material is appended at the end.
     let mut textures = TextureTable { path, base, buffers: &buffers, index: HashMap::new(), textures: Vec::new() };
     for m in doc.materials() {
-        scene.materials.push(convert_material(&m, &mut textures)?);
+        let material = convert_material(&m, &mut textures)?;
+        if let Some(w) = beyond_f32_sums(&format!("material '{}': emission", material.name), material.emission) {
+            scene.warnings.push(w);
+        }
+        scene.materials.push(material);
     }
     scene.textures = textures.textures;
     let default_material = scene.materials.len() as u32;
@@ -249,6 +253,22 @@ struct Loader<'a> {
     default_material: u32,
 }
 
+/// Emission (and punctual lights' intensity) above this warns at load. The kernels accumulate each
+/// pixel's samples and their squares in f32, and drop a sample whose square overflows (above about
+/// 1.8e19, counted as non-finite), so an emitter near that level renders black where it shows; the
+/// margin is for the estimator's factors (BRDF peaks, 1/r² near a light), which can exceed 1000.
+pub const MAX_SAFE_EMISSION: f32 = 1e16;
+
+fn beyond_f32_sums(what: &str, value: Vec3) -> Option<String> {
+    let max = value.max_element();
+    (max > MAX_SAFE_EMISSION).then(|| {
+        format!(
+            "{what} {max:e} is above {MAX_SAFE_EMISSION:e}: samples whose squares overflow f32 are dropped \
+             (counted as non-finite), so expect dark pixels; scale the scene's emission down"
+        )
+    })
+}
+
 /// Node hierarchies deeper than this are treated as cycles (the validator rejects cycles, but
 /// a file may skip validation-relevant data).
 const MAX_NODE_DEPTH: usize = 256;
@@ -383,6 +403,9 @@ impl Loader<'_> {
             self.scene
                 .warnings
                 .push(format!("{name}: `range` is ignored; lights fall off with the inverse square law"));
+        }
+        if let Some(w) = beyond_f32_sums(&format!("{name}: intensity"), color) {
+            self.scene.warnings.push(w);
         }
         let kind = match light.kind() {
             Kind::Point => LightKind::Point { position, intensity: color },
