@@ -211,3 +211,15 @@ fn emission_beyond_f32_sums_is_a_warning_naming_the_material() {
     let scene = veach::load_gltf(&write_json("bright.gltf", &v)).unwrap();
     assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
 }
+
+#[test]
+fn a_field_of_view_outside_the_specification_is_a_warning_naming_the_camera() {
+    let mut v = triangle_json();
+    v["cameras"] = json!([{ "name": "wide", "type": "perspective", "perspective": { "yfov": 4.0, "znear": 0.01 } }]);
+    v["nodes"].as_array_mut().unwrap().push(json!({ "camera": 0 }));
+    let n = v["nodes"].as_array().unwrap().len() - 1;
+    v["scenes"][0]["nodes"].as_array_mut().unwrap().push(json!(n));
+    let scene = veach::load_gltf(&write_json("wide-camera.gltf", &v)).unwrap();
+    assert!(scene.warnings.iter().any(|w| w.contains("camera 'wide'") && w.contains("yfov 4")), "{:?}", scene.warnings);
+    assert!(scene.cameras[0].yfov < std::f32::consts::PI);
+}
