@@ -700,6 +700,12 @@ struct BandPixel {
     inside: bool,
 }
 
+// A camera sample's numbers, keyed by its pixel's index in the whole image (`pixel` indexes the
+// buffers, which start at image row frame.tile_row), so that a tiled image is the untiled one.
+fn pixel_sample_stream(pixel: u32, sample: u32) -> SampleStream {
+    return sample_stream(pixel + frame.tile_row * frame.width, sample, frame.seed);
+}
+
 fn band_pixel(gid: vec3u) -> BandPixel {
     let y = frame.row_start + gid.y;
     let inside = gid.x < frame.width && gid.y < frame.row_count && y < frame.height;
@@ -763,7 +769,7 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
     var k = u32(sum.w);
     if k < frame.sample_start + frame.sample_count {
         loop {
-            var stream = sample_stream(pixel, k, frame.seed);
+            var stream = pixel_sample_stream(pixel, k);
             let ray = camera_ray(vec2u(px.x, px.y), sample_2d(&stream));
             var rays = 0u;
             let e = estimate_radiance(ray, &stream, &rays);

@@ -47,6 +47,7 @@ struct Camera {
 
 struct FrameParams {
     camera: Camera,
+    // The pixel buffers' size: the image's, or a tile's (rows of it, from tile_row).
     width: u32,
     height: u32,
     // Rows [row_start, row_start + row_count) are rendered by this dispatch.
@@ -82,9 +83,12 @@ struct FrameParams {
     // A box around every area light's triangles, for emitter_reach: the sphere's companion,
     // tighter for lights that lie in a plane or along a line.
     emitter_min: vec3f,
-    _pad7: u32,
+    // The image row of the buffers' first row (0 unless the image is rendered in tiles, whose
+    // buffers each fit the adapter's binding size: Renderer::render), and the image's height.
+    // The camera and the sample streams see image rows, so a tiled image is the untiled one.
+    tile_row: u32,
     emitter_max: vec3f,
-    _pad8: u32,
+    image_height: u32,
 }
 
 // A node of the 4-wide BVH, 64 bytes (crates/veach/src/gpu/bvh_nodes.rs): up to four children's

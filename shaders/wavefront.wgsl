@@ -29,7 +29,7 @@ fn render_light_pass(@builtin(global_invocation_id) gid: vec3u) {
     if sample >= frame.sample_start + frame.sample_count {
         return;
     }
-    var stream = sample_stream(pixel, sample, frame.seed);
+    var stream = pixel_sample_stream(pixel, sample);
     let ray = camera_ray(vec2u(px.x, px.y), sample_2d(&stream));
     var rays = 1u;
     var e = Estimate(vec3f(0.0), vec3f(0.0), vec3f(0.0));
@@ -212,7 +212,7 @@ fn render_direction_pass(@builtin(global_invocation_id) gid: vec3u) {
     // The camera ray again, from the start of the sample's stream.
     let x = q.pixel % frame.width;
     let y = q.pixel / frame.width;
-    var stream = sample_stream(q.pixel, q.sample, frame.seed);
+    var stream = pixel_sample_stream(q.pixel, q.sample);
     let ray = camera_ray(vec2u(x, y), sample_2d(&stream));
     let hit = Hit(0.0, q.b1, q.b2, q.tri, true);
     let c = shading_context(surface_at(hit, ray.dir), ray.dir);

@@ -115,12 +115,29 @@ impl Accumulation {
     /// Allocates the image buffers and gets the kernel for `settings` (compiling it now if it
     /// is not cached; that time is `kernel_creation`, outside the render time).
     pub fn new(renderer: &Renderer, scene: &GpuScene, settings: &RenderSettings, camera: &Camera) -> Result<Self> {
+        Self::for_rows(renderer, scene, settings, camera, 0..settings.height)
+    }
+
+    /// The image's rows `rows` alone (a tile, `Renderer::render`): buffers of that many rows, the
+    /// same camera samples in them as the whole image's render takes (the kernels see image rows,
+    /// `tile_row`). Its `settings()` and `read()` are the tile's: `height` is `rows.len()`.
+    pub fn for_rows(
+        renderer: &Renderer,
+        scene: &GpuScene,
+        image: &RenderSettings,
+        camera: &Camera,
+        rows: std::ops::Range<u32>,
+    ) -> Result<Self> {
         let gpu = renderer.gpu.clone();
         let device = &gpu.device;
-        let (w, h) = (settings.width, settings.height);
-        if w == 0 || h == 0 {
-            return Err(Error::Options(format!("image size {w}x{h} is empty")));
+        if image.width == 0 || image.height == 0 {
+            return Err(Error::Options(format!("image size {}x{} is empty", image.width, image.height)));
         }
+        if rows.is_empty() || rows.end > image.height {
+            return Err(Error::Options(format!("rows {rows:?} are not a tile of {} rows", image.height)));
+        }
+        let settings = &RenderSettings { height: rows.len() as u32, ..image.clone() };
+        let (w, h) = (settings.width, settings.height);
         let pixels = w as u64 * h as u64;
         let accum_bytes = pixels * 16;
         let max_binding = device.limits().max_storage_buffer_binding_size;
@@ -187,7 +204,8 @@ impl Accumulation {
         } else {
             (renderer.bind_group(&kernel, &params_buffer, scene, &outputs, &[]), None)
         };
-        let params = renderer.frame_params(scene, settings, camera);
+        let mut params = renderer.frame_params(scene, image, camera);
+        (params.height, params.tile_row) = (h, rows.start);
         let mut acc = Accumulation {
             gpu: gpu.clone(),
             settings: settings.clone(),

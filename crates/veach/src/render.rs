@@ -272,6 +272,39 @@ pub struct RenderOutput {
 }
 
 impl RenderOutput {
+    /// This tile's rows with `below`'s after them: one output, its counts and times added up.
+    fn with_rows_below(mut self, below: RenderOutput) -> RenderOutput {
+        self.height += below.height;
+        self.sum.extend(below.sum);
+        self.sum_sq.extend(below.sum_sq);
+        if let (Some(c), Some(b)) = (&mut self.contributions, below.contributions) {
+            c.light.extend(b.light);
+            c.brdf.extend(b.brdf);
+        }
+        self.rays += below.rays;
+        self.nonfinite_samples += below.nonfinite_samples;
+        self.truncated_samples += below.truncated_samples;
+        self.render_time += below.render_time;
+        self.gpu_time = self.gpu_time.zip(below.gpu_time).map(|(a, b)| a + b);
+        self.kernel_creation += below.kernel_creation;
+        self.dispatches += below.dispatches;
+        self.interrupted |= below.interrupted;
+        self
+    }
+
+    /// Rows without samples up to `height` (a tiled render stopped before its last tiles).
+    fn pad_rows_to(&mut self, height: u32) {
+        let pixels = self.width as usize * height as usize;
+        self.sum.resize(pixels, [0.0; 4]);
+        self.sum_sq.resize(pixels, [0.0; 4]);
+        if let Some(c) = &mut self.contributions {
+            c.light.resize(pixels, [0.0; 4]);
+            c.brdf.resize(pixels, [0.0; 4]);
+        }
+        self.interrupted |= self.height < height;
+        self.height = height;
+    }
+
     /// Per-pixel mean radiance; non-finite values (which the kernel never writes, but a sum can
     /// overflow) become 0.
     pub fn mean(&self) -> Vec<[f32; 3]> {
@@ -758,6 +791,7 @@ impl Renderer {
             camera: camera.to_gpu(s.width, s.height),
             width: s.width,
             height: s.height,
+            image_height: s.height,
             seed: s.seed,
             strategy: match strategy {
                 Strategy::Uniform => layout::STRATEGY_UNIFORM,
@@ -801,7 +835,9 @@ impl Renderer {
     }
 
     /// Renders `settings.spp` camera samples per pixel (or until the time limit), calling
-    /// `progress` after every dispatch; returning false from it stops the render early.
+    /// `progress` after every dispatch; returning false from it stops the render early. An image
+    /// whose pixel buffers (16 bytes a pixel) exceed the adapter's binding size (lavapipe: 128 MiB,
+    /// 8.4 million pixels) is rendered in tiles of rows, the same image (`render_in_tiles`).
     pub fn render(
         &self,
         scene: &GpuScene,
@@ -809,7 +845,73 @@ impl Renderer {
         camera: &Camera,
         progress: &mut dyn FnMut(Progress) -> bool,
     ) -> Result<RenderOutput> {
-        let mut acc = Accumulation::new(self, scene, settings, camera)?;
+        let max_binding = self.gpu.device.limits().max_storage_buffer_binding_size;
+        let max_rows = (max_binding / (16 * settings.width.max(1) as u64)).min(u32::MAX as u64) as u32;
+        self.render_in_tiles(scene, settings, camera, max_rows, progress)
+    }
+
+    /// `render`, one tile of at most `max_rows` rows after another: the same camera samples per
+    /// pixel as in one piece, so the same image. A time limit is shared among the tiles by their
+    /// rows; a render stopped by `progress` leaves the rows after its tile without samples.
+    pub fn render_in_tiles(
+        &self,
+        scene: &GpuScene,
+        settings: &RenderSettings,
+        camera: &Camera,
+        max_rows: u32,
+        progress: &mut dyn FnMut(Progress) -> bool,
+    ) -> Result<RenderOutput> {
+        if max_rows == 0 {
+            return Err(Error::Options(format!(
+                "a row of {} pixels does not fit this adapter's largest buffer binding",
+                settings.width
+            )));
+        }
+        let tiles = tile_rows(settings.height, max_rows);
+        if tiles.len() == 1 {
+            return self.render_rows(scene, settings, camera, 0..settings.height, progress);
+        }
+        let height = settings.height as f64;
+        let mut whole: Option<RenderOutput> = None;
+        for rows in tiles {
+            let share = rows.len() as f64 / height;
+            let tile_settings =
+                RenderSettings { time_limit: settings.time_limit.map(|t| t.mul_f64(share)), ..settings.clone() };
+            let (before_fraction, before_samples, before_time) = match &whole {
+                Some(w) => (rows.start as f64 / height, w.sum.iter().map(|s| s[3] as u64).sum::<u64>(), w.render_time),
+                None => (0.0, 0, Duration::ZERO),
+            };
+            let tile = self.render_rows(scene, &tile_settings, camera, rows, &mut |p| {
+                progress(Progress {
+                    fraction: before_fraction + share * p.fraction,
+                    pixel_samples_done: before_samples + p.pixel_samples_done,
+                    elapsed: before_time + p.elapsed,
+                })
+            })?;
+            let stop = tile.interrupted;
+            whole = Some(match whole {
+                None => tile,
+                Some(w) => w.with_rows_below(tile),
+            });
+            if stop {
+                break;
+            }
+        }
+        let mut out = whole.expect("at least one tile");
+        out.pad_rows_to(settings.height);
+        Ok(out)
+    }
+
+    /// The image's rows `rows` (all of them: `render`), with `settings` the whole image's.
+    fn render_rows(
+        &self,
+        scene: &GpuScene,
+        settings: &RenderSettings,
+        camera: &Camera,
+        rows: std::ops::Range<u32>,
+        progress: &mut dyn FnMut(Progress) -> bool,
+    ) -> Result<RenderOutput> {
+        let mut acc = Accumulation::for_rows(self, scene, settings, camera, rows.clone())?;
         // With a time limit, no dispatch longer than a tenth of it, so that the render stops near it.
         let target = match settings.time_limit {
             Some(t) => settings.dispatch_target.min(t / 10),
@@ -821,7 +923,7 @@ impl Renderer {
         if settings.time_limit.is_none() {
             acc.set_band_samples(BAND_SAMPLES);
         }
-        let total_pixel_samples = settings.width as u64 * settings.height as u64 * settings.spp as u64;
+        let total_pixel_samples = settings.width as u64 * rows.len() as u64 * settings.spp as u64;
         while !acc.is_complete() && settings.time_limit.is_none_or(|t| acc.render_time() < t) {
             acc.dispatch(target)?;
             let done = acc.pixel_samples_done();
@@ -842,6 +944,16 @@ impl Renderer {
         out.interrupted &= settings.time_limit.is_none_or(|t| acc.render_time() < t);
         Ok(out)
     }
+}
+
+/// An image's rows in tiles of at most `max_rows` (and at least 1), as even as they come.
+pub fn tile_rows(height: u32, max_rows: u32) -> Vec<std::ops::Range<u32>> {
+    let count = height.div_ceil(max_rows.max(1)).max(1);
+    (0..count)
+        .map(|i| {
+            (height as u64 * i as u64 / count as u64) as u32..(height as u64 * (i as u64 + 1) / count as u64) as u32
+        })
+        .collect()
 }
 
 /// Timestamp queries around one compute pass, resolved and read back after each dispatch.

@@ -83,9 +83,11 @@ pub struct FrameParams {
     pub fresh_sums: u32,
     /// A box around every area light's triangles (min > max: none), for emitter_reach.
     pub emitter_min: [f32; 3],
-    pub _pad5: u32,
+    /// The image row of the pixel buffers' first row (a tile's; 0 for the whole image).
+    pub tile_row: u32,
     pub emitter_max: [f32; 3],
-    pub _pad6: u32,
+    /// The image's height; `height` is the pixel buffers' (a tile's rows).
+    pub image_height: u32,
 }
 
 #[repr(C)]
@@ -323,7 +325,9 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             control_variate,
             fresh_sums,
             emitter_min,
-            emitter_max
+            tile_row,
+            emitter_max,
+            image_height
         }),
         layout!(BvhNode { origin, exponents, low, lights_01, high, lights_23, children }),
         layout!(Vertex { p, normal }),
