@@ -223,3 +223,18 @@ fn a_field_of_view_outside_the_specification_is_a_warning_naming_the_camera() {
     assert!(scene.warnings.iter().any(|w| w.contains("camera 'wide'") && w.contains("yfov 4")), "{:?}", scene.warnings);
     assert!(scene.cameras[0].yfov < std::f32::consts::PI);
 }
+
+/// Material features veach leaves out are named at load, not dropped silently.
+#[test]
+fn transparency_and_unsupported_material_extensions_are_warnings_naming_the_material() {
+    let mut v = triangle_json();
+    v["materials"][0]["alphaMode"] = json!("BLEND");
+    v["materials"][0]["extensions"] = json!({ "KHR_materials_transmission": { "transmissionFactor": 1.0 } });
+    v["extensionsUsed"] = json!(["KHR_materials_transmission"]);
+    let scene = veach::load_gltf(&write_json("glass.gltf", &v)).unwrap();
+    let w = scene.warnings.join("\n");
+    assert!(w.contains("material 'grey': alphaMode Blend"), "{w}");
+    assert!(w.contains("material 'grey': KHR_materials_transmission not supported"), "{w}");
+    let scene = veach::load_gltf(&write_json("opaque.gltf", &triangle_json())).unwrap();
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+}

@@ -77,6 +77,7 @@ fn load_gltf_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
     let mut textures = TextureTable { path, base, buffers: &buffers, index: HashMap::new(), textures: Vec::new() };
     for m in doc.materials() {
         let material = convert_material(&m, &mut textures)?;
+        scene.warnings.extend(ignored_material_features(&m, &material.name));
         if let Some(w) = beyond_f32_sums(&format!("material '{}': emission", material.name), material.emission) {
             scene.warnings.push(w);
         }
@@ -251,6 +252,23 @@ struct Loader<'a> {
     buffers: &'a [gltf::buffer::Data],
     scene: &'a mut Scene,
     default_material: u32,
+}
+
+/// What a material asks for that veach's BRDF leaves out: transparency (alphaMode MASK or BLEND)
+/// and material extensions other than emissive strength and specular (the gltf crate parses
+/// those two; any other lands in `extensions()`), so that a scene that renders differently from
+/// a full glTF viewer says why.
+fn ignored_material_features(m: &gltf::Material, name: &str) -> Vec<String> {
+    let mut warnings = Vec::new();
+    match m.alpha_mode() {
+        gltf::material::AlphaMode::Opaque => {}
+        mode => warnings.push(format!("material '{name}': alphaMode {mode:?} is not supported; rendered opaque")),
+    }
+    if let Some(others) = m.extensions().filter(|e| !e.is_empty()) {
+        let names: Vec<&str> = others.keys().map(String::as_str).collect();
+        warnings.push(format!("material '{name}': {} not supported; ignored", names.join(", ")));
+    }
+    warnings
 }
 
 /// Emission (and punctual lights' intensity) above this warns at load. The kernels accumulate each
