@@ -94,6 +94,10 @@ fn a_bad_scene_is_a_clear_error_and_leaves_the_old_output_alone() {
     assert!(!o.status.success() && stderr(&o).contains("is a directory"), "{}", stderr(&o));
     let o = veach(&["render", &assets("cornell-box.gltf"), "-o", "x.png", "--stats", "/no/such/dir/s.json"]);
     assert!(!o.status.success() && stderr(&o).contains("/no/such/dir/s.json"), "{}", stderr(&o));
+    let size = ["--width", "100000", "--height", "100000"];
+    let o = veach(&[&["render", &assets("cornell-box.gltf"), "-o", out.to_str().unwrap()][..], &size].concat());
+    let e = stderr(&o);
+    assert!(o.status.code() == Some(1) && e.contains("100000x100000") && !e.contains("adapter:"), "{e}");
     for (flag, value) in [("--time-limit", "1e30"), ("--time-limit", "nan"), ("--exposure", "inf")] {
         let o = veach(&["render", &assets("cornell-box.gltf"), "-o", out.to_str().unwrap(), flag, value]);
         let e = stderr(&o);

@@ -434,6 +434,14 @@ fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
     if args.width == 0 || args.height == 0 {
         bail!("--width and --height must be at least 1");
     }
+    if args.width as u64 * args.height as u64 > veach::render::MAX_IMAGE_PIXELS {
+        bail!(
+            "{}x{} is more than {} pixels (16384x16384), the most veach renders",
+            args.width,
+            args.height,
+            veach::render::MAX_IMAGE_PIXELS
+        );
+    }
     let time_limit = match args.time_limit {
         Some(t) if !(t.is_finite() && t > 0.0) => {
             bail!("--time-limit must be a positive number of seconds")

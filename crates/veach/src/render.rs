@@ -861,6 +861,13 @@ impl Renderer {
         max_rows: u32,
         progress: &mut dyn FnMut(Progress) -> bool,
     ) -> Result<RenderOutput> {
+        let pixels = settings.width as u64 * settings.height as u64;
+        if pixels > MAX_IMAGE_PIXELS {
+            return Err(Error::Options(format!(
+                "{}x{} is {pixels} pixels; veach renders at most {MAX_IMAGE_PIXELS} (16384x16384)",
+                settings.width, settings.height
+            )));
+        }
         if max_rows == 0 {
             return Err(Error::Options(format!(
                 "a row of {} pixels does not fit this adapter's largest buffer binding",
@@ -945,6 +952,10 @@ impl Renderer {
         Ok(out)
     }
 }
+
+/// The largest image `render` takes: 2^28 pixels (16384 × 16384). Its sums come back to the host
+/// at 32 bytes a pixel and more (8 GiB here), and the kernels index an image's pixels in 32 bits.
+pub const MAX_IMAGE_PIXELS: u64 = 1 << 28;
 
 /// An image's rows in tiles of at most `max_rows` (and at least 1), as even as they come.
 pub fn tile_rows(height: u32, max_rows: u32) -> Vec<std::ops::Range<u32>> {
