@@ -180,7 +180,7 @@ fn read_pfm(path: &Path) -> std::result::Result<(u32, u32, Vec<[f32; 3]>), Strin
     let h: u32 = fields[2].parse().map_err(|_| "bad PFM height")?;
     let scale: f32 = fields[3].parse().map_err(|_| "bad PFM scale")?;
     let n = w as usize * h as usize;
-    if bytes.len() < pos + n * 12 {
+    if n.checked_mul(12).and_then(|b| b.checked_add(pos)).is_none_or(|end| bytes.len() < end) {
         return Err("truncated PFM data".into());
     }
     let read = |i: usize| {
@@ -219,6 +219,19 @@ mod tests {
         let png = image::open(&p).unwrap().into_rgb8();
         assert_eq!(png.get_pixel(0, 0).0, [188; 3]); // sRGB(0.5) = 0.7354 → 188
         assert_eq!(png.get_pixel(1, 0).0, [255; 3]);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_pfm_header_larger_than_its_data_is_an_error() {
+        let dir = std::env::temp_dir().join(format!("veach-pfm-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for (name, header) in [("short", "PF\n4 4\n-1.0\n"), ("huge", "PF\n4294967295 4294967295\n-1.0\n")] {
+            let p = dir.join(format!("{name}.pfm"));
+            std::fs::write(&p, [header.as_bytes(), &[0u8; 48]].concat()).unwrap();
+            let e = read_image(&p).unwrap_err().to_string();
+            assert!(e.contains(&format!("{name}.pfm")) && e.contains("truncated"), "{e}");
+        }
         let _ = std::fs::remove_dir_all(&dir);
     }
 
