@@ -62,6 +62,15 @@ fn renders_exr_png_and_pfm_with_stats() {
         }
         assert!(s["adapter"].as_str().is_some_and(|a| !a.is_empty()));
     }
+    // The same render in both float formats: the same pixels; the EXR's header names its settings.
+    let exr = veach::image_io::read_image(&dir.join("cornell.exr")).unwrap();
+    assert_eq!(exr, veach::image_io::read_image(&dir.join("cornell.pfm")).unwrap());
+    let meta = veach::image_io::read_exr_metadata(&dir.join("cornell.exr")).unwrap();
+    let value = |name: &str| meta.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_str());
+    assert_eq!(value("veach:strategy"), Some("mis"), "{meta:?}");
+    assert_eq!(value("veach:light_samples"), Some("2"), "{meta:?}");
+    assert_eq!(value("veach:spp"), Some("2.000"), "{meta:?}");
+    assert!(value("veach:scene").is_some_and(|s| s.ends_with("cornell-box.gltf")), "{meta:?}");
 }
 
 #[test]

@@ -680,7 +680,33 @@ fn render(args: RenderArgs) -> Result<()> {
         say("interrupted: writing the samples accumulated so far".into());
     }
 
-    veach::image_io::write_image(&args.output, out.width, out.height, &out.mean(), args.exposure)?;
+    // What made the image, in an EXR file's header (`veach::image_io::read_exr_metadata`).
+    let metadata = [
+        ("veach:version", env!("CARGO_PKG_VERSION").to_string()),
+        ("veach:scene", args.scene.display().to_string()),
+        ("veach:camera", camera.name.clone()),
+        ("veach:strategy", settings.strategy.name().to_string()),
+        ("veach:light_samples", settings.light_samples.to_string()),
+        ("veach:brdf_samples", settings.brdf_samples.to_string()),
+        ("veach:heuristic", format!("{:?}", settings.heuristic).to_lowercase()),
+        ("veach:light_selection", format!("{:?}", settings.light_selection).to_lowercase()),
+        ("veach:light_sampling", format!("{:?}", settings.light_sampling).to_lowercase()),
+        ("veach:sampler", format!("{:?}", settings.sampler).to_lowercase()),
+        ("veach:control_variate", settings.control_variate.to_string()),
+        ("veach:hide_emitters", settings.hide_emitters.to_string()),
+        ("veach:seed", settings.seed.to_string()),
+        ("veach:spp", format!("{:.3}", out.mean_samples())),
+        ("veach:render_seconds", format!("{:.6}", out.render_time.as_secs_f64())),
+        ("veach:adapter", renderer.gpu.describe()),
+    ];
+    veach::image_io::write_image_with_metadata(
+        &args.output,
+        out.width,
+        out.height,
+        &out.mean(),
+        args.exposure,
+        &metadata,
+    )?;
     if let Some(images) = out.contribution_images() {
         let (light, brdf, emitted) = (&images.light, &images.brdf, &images.emitted_luminance);
         let ext = args.output.extension().and_then(|e| e.to_str()).unwrap_or("exr");
@@ -688,12 +714,12 @@ fn render(args: RenderArgs) -> Result<()> {
         let mut written = Vec::new();
         if args.aov.contains(&AovArg::Light) {
             let path = sibling("light", ext);
-            veach::image_io::write_image(&path, out.width, out.height, light, args.exposure)?;
+            veach::image_io::write_image_with_metadata(&path, out.width, out.height, light, args.exposure, &metadata)?;
             written.push(path);
         }
         if args.aov.contains(&AovArg::Brdf) {
             let path = sibling("brdf", ext);
-            veach::image_io::write_image(&path, out.width, out.height, brdf, args.exposure)?;
+            veach::image_io::write_image_with_metadata(&path, out.width, out.height, brdf, args.exposure, &metadata)?;
             written.push(path);
         }
         if args.aov.contains(&AovArg::Weights) {

@@ -67,15 +67,25 @@ pub fn light_share_false_colour(light: &[[f32; 3]], brdf: &[[f32; 3]], emitted: 
 /// Writes linear RGB pixels (row-major, top row first). `exposure` is in stops and applies to
 /// PNG only; float formats keep the radiance values as they are.
 pub fn write_image(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]], exposure: f32) -> Result<()> {
+    write_image_with_metadata(path, width, height, pixels, exposure, &[])
+}
+
+/// `write_image`, with `metadata` (name, value) as text attributes of an EXR file's header
+/// (`veach render` records its settings there; PNG and PFM carry none). Characters outside
+/// Latin-1, which EXR text cannot hold, become '?'.
+pub fn write_image_with_metadata(
+    path: &Path,
+    width: u32,
+    height: u32,
+    pixels: &[[f32; 3]],
+    exposure: f32,
+    metadata: &[(&str, String)],
+) -> Result<()> {
     let format = ImageFormat::from_path(path)?;
     assert_eq!(pixels.len(), (width * height) as usize);
     let clean: Vec<[f32; 3]> = pixels.iter().map(|p| p.map(|v| if v.is_finite() { v } else { 0.0 })).collect();
     write_atomically(path, |file| match format {
-        ImageFormat::Exr => {
-            let data: Vec<f32> = clean.iter().flatten().copied().collect();
-            let img = image::Rgb32FImage::from_raw(width, height, data).expect("pixel count checked");
-            img.write_to(file, image::ImageFormat::OpenExr).map_err(|e| e.to_string())
-        }
+        ImageFormat::Exr => write_exr(file, width, height, &clean, metadata),
         ImageFormat::Png => {
             let scale = 2f32.powf(exposure);
             let data: Vec<u8> = clean
@@ -88,6 +98,45 @@ pub fn write_image(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]], ex
         }
         ImageFormat::Pfm => write_pfm(file, width, height, &clean).map_err(|e| e.to_string()),
     })
+}
+
+fn write_exr(
+    file: &mut BufWriter<std::fs::File>,
+    width: u32,
+    height: u32,
+    pixels: &[[f32; 3]],
+    metadata: &[(&str, String)],
+) -> std::result::Result<(), String> {
+    use exr::prelude::*;
+    let text =
+        |s: &str| Text::new_or_panic(s.chars().map(|c| if (c as u32) < 256 { c } else { '?' }).collect::<String>());
+    let mut attributes = LayerAttributes { software_name: Some(text("veach")), ..LayerAttributes::default() };
+    for (name, value) in metadata {
+        attributes.other.insert(text(name), AttributeValue::Text(text(value)));
+    }
+    let w = width as usize;
+    let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
+        let [r, g, b] = pixels[p.y() * w + p.x()];
+        (r, g, b)
+    });
+    let layer = Layer::new((w, height as usize), attributes, Encoding::FAST_LOSSLESS, channels);
+    Image::from_layer(layer).write().non_parallel().to_buffered(file).map_err(|e| e.to_string())
+}
+
+/// The text attributes of an EXR file's header (`write_image_with_metadata`), name and value.
+pub fn read_exr_metadata(path: &Path) -> Result<Vec<(String, String)>> {
+    let err = |m: String| Error::Output { path: path.to_owned(), message: m };
+    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| err(e.to_string()))?;
+    let mut found = Vec::new();
+    for header in &meta.headers {
+        for (name, value) in &header.own_attributes.other {
+            if let exr::meta::attribute::AttributeValue::Text(t) = value {
+                found.push((name.to_string(), t.to_string()));
+            }
+        }
+    }
+    found.sort();
+    Ok(found)
 }
 
 /// Portable float map: "PF", size, -1 (little endian), then rows from the bottom up.
