@@ -434,14 +434,7 @@ fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
     if args.width == 0 || args.height == 0 {
         bail!("--width and --height must be at least 1");
     }
-    if args.width as u64 * args.height as u64 > veach::render::MAX_IMAGE_PIXELS {
-        bail!(
-            "{}x{} is more than {} pixels (16384x16384), the most veach renders",
-            args.width,
-            args.height,
-            veach::render::MAX_IMAGE_PIXELS
-        );
-    }
+    veach::render::check_image_size(args.width, args.height)?;
     let time_limit = match args.time_limit {
         Some(t) if !(t.is_finite() && t > 0.0) => {
             bail!("--time-limit must be a positive number of seconds")
@@ -681,24 +674,17 @@ fn render(args: RenderArgs) -> Result<()> {
     }
 
     // What made the image, in an EXR file's header (`veach::image_io::read_exr_metadata`).
-    let metadata = [
-        ("veach:version", env!("CARGO_PKG_VERSION").to_string()),
-        ("veach:scene", args.scene.display().to_string()),
-        ("veach:camera", camera.name.clone()),
-        ("veach:strategy", settings.strategy.name().to_string()),
-        ("veach:light_samples", settings.light_samples.to_string()),
-        ("veach:brdf_samples", settings.brdf_samples.to_string()),
-        ("veach:heuristic", format!("{:?}", settings.heuristic).to_lowercase()),
-        ("veach:light_selection", format!("{:?}", settings.light_selection).to_lowercase()),
-        ("veach:light_sampling", format!("{:?}", settings.light_sampling).to_lowercase()),
-        ("veach:sampler", format!("{:?}", settings.sampler).to_lowercase()),
-        ("veach:control_variate", settings.control_variate.to_string()),
-        ("veach:hide_emitters", settings.hide_emitters.to_string()),
-        ("veach:seed", settings.seed.to_string()),
-        ("veach:spp", format!("{:.3}", out.mean_samples())),
-        ("veach:render_seconds", format!("{:.6}", out.render_time.as_secs_f64())),
-        ("veach:adapter", renderer.gpu.describe()),
-    ];
+    // The settings as --stats names them, and what the render reached.
+    let mut metadata = veach::stats::SettingsReport::new(&settings, &camera.name).fields();
+    metadata.extend([
+        ("version".into(), env!("CARGO_PKG_VERSION").to_string()),
+        ("scene".into(), args.scene.display().to_string()),
+        ("hide_emitters".into(), settings.hide_emitters.to_string()),
+        ("spp".into(), format!("{:.3}", out.mean_samples())),
+        ("render_seconds".into(), format!("{:.6}", out.render_time.as_secs_f64())),
+        ("adapter".into(), renderer.gpu.describe()),
+    ]);
+    let metadata: Vec<(String, String)> = metadata.into_iter().map(|(name, v)| (format!("veach:{name}"), v)).collect();
     veach::image_io::write_image_with_metadata(
         &args.output,
         out.width,

@@ -19,6 +19,9 @@ use std::time::{Duration, Instant};
 /// "The first dispatch").
 const FIRST_DISPATCH_RAYS: u64 = 1 << 18;
 
+/// Bytes per pixel of each image buffer (`accum`, `accum_sq`, the contribution images): a vec4f.
+pub(crate) const IMAGE_BUFFER_BYTES_PER_PIXEL: u64 = std::mem::size_of::<[f32; 4]>() as u64;
+
 /// A dispatch of `n` of the `left` passes (or rows) still to do, grown to take them all where no
 /// more than `n` would be left: a render then never ends on a short dispatch, which costs about as
 /// much beyond its samples as a long one (on lavapipe about 15 ms at 256×256, mostly per
@@ -139,7 +142,7 @@ impl Accumulation {
         let settings = &RenderSettings { height: rows.len() as u32, ..image.clone() };
         let (w, h) = (settings.width, settings.height);
         let pixels = w as u64 * h as u64;
-        let accum_bytes = pixels * 16;
+        let accum_bytes = pixels * IMAGE_BUFFER_BYTES_PER_PIXEL;
         let max_binding = device.limits().max_storage_buffer_binding_size;
         if accum_bytes > max_binding {
             return Err(Error::Options(format!(

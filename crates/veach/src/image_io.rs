@@ -79,7 +79,7 @@ pub fn write_image_with_metadata(
     height: u32,
     pixels: &[[f32; 3]],
     exposure: f32,
-    metadata: &[(&str, String)],
+    metadata: &[(String, String)],
 ) -> Result<()> {
     let format = ImageFormat::from_path(path)?;
     assert_eq!(pixels.len(), (width * height) as usize);
@@ -105,7 +105,7 @@ fn write_exr(
     width: u32,
     height: u32,
     pixels: &[[f32; 3]],
-    metadata: &[(&str, String)],
+    metadata: &[(String, String)],
 ) -> std::result::Result<(), String> {
     use exr::prelude::*;
     let text =

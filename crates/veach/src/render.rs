@@ -846,7 +846,8 @@ impl Renderer {
         progress: &mut dyn FnMut(Progress) -> bool,
     ) -> Result<RenderOutput> {
         let max_binding = self.gpu.device.limits().max_storage_buffer_binding_size;
-        let max_rows = (max_binding / (16 * settings.width.max(1) as u64)).min(u32::MAX as u64) as u32;
+        let row_bytes = crate::accumulation::IMAGE_BUFFER_BYTES_PER_PIXEL * settings.width.max(1) as u64;
+        let max_rows = (max_binding / row_bytes).min(u32::MAX as u64) as u32;
         self.render_in_tiles(scene, settings, camera, max_rows, progress)
     }
 
@@ -861,13 +862,7 @@ impl Renderer {
         max_rows: u32,
         progress: &mut dyn FnMut(Progress) -> bool,
     ) -> Result<RenderOutput> {
-        let pixels = settings.width as u64 * settings.height as u64;
-        if pixels > MAX_IMAGE_PIXELS {
-            return Err(Error::Options(format!(
-                "{}x{} is {pixels} pixels; veach renders at most {MAX_IMAGE_PIXELS} (16384x16384)",
-                settings.width, settings.height
-            )));
-        }
+        check_image_size(settings.width, settings.height)?;
         if max_rows == 0 {
             return Err(Error::Options(format!(
                 "a row of {} pixels does not fit this adapter's largest buffer binding",
@@ -880,21 +875,22 @@ impl Renderer {
         }
         let height = settings.height as f64;
         let mut whole: Option<RenderOutput> = None;
+        // The tiles before this one: their pixel samples and render time.
+        let (mut samples_before, mut time_before) = (0u64, Duration::ZERO);
         for rows in tiles {
             let share = rows.len() as f64 / height;
+            let start = rows.start as f64 / height;
             let tile_settings =
                 RenderSettings { time_limit: settings.time_limit.map(|t| t.mul_f64(share)), ..settings.clone() };
-            let (before_fraction, before_samples, before_time) = match &whole {
-                Some(w) => (rows.start as f64 / height, w.sum.iter().map(|s| s[3] as u64).sum::<u64>(), w.render_time),
-                None => (0.0, 0, Duration::ZERO),
-            };
             let tile = self.render_rows(scene, &tile_settings, camera, rows, &mut |p| {
                 progress(Progress {
-                    fraction: before_fraction + share * p.fraction,
-                    pixel_samples_done: before_samples + p.pixel_samples_done,
-                    elapsed: before_time + p.elapsed,
+                    fraction: start + share * p.fraction,
+                    pixel_samples_done: samples_before + p.pixel_samples_done,
+                    elapsed: time_before + p.elapsed,
                 })
             })?;
+            samples_before += tile.sum.iter().map(|s| s[3] as u64).sum::<u64>();
+            time_before += tile.render_time;
             let stop = tile.interrupted;
             whole = Some(match whole {
                 None => tile,
@@ -956,6 +952,17 @@ impl Renderer {
 /// The largest image `render` takes: 2^28 pixels (16384 × 16384). Its sums come back to the host
 /// at 32 bytes a pixel and more (8 GiB here), and the kernels index an image's pixels in 32 bits.
 pub const MAX_IMAGE_PIXELS: u64 = 1 << 28;
+
+/// Refuses an image above `MAX_IMAGE_PIXELS` (`render` does; the CLI before it loads anything).
+pub fn check_image_size(width: u32, height: u32) -> Result<()> {
+    let pixels = width as u64 * height as u64;
+    if pixels > MAX_IMAGE_PIXELS {
+        return Err(Error::Options(format!(
+            "{width}x{height} is {pixels} pixels; veach renders at most {MAX_IMAGE_PIXELS} (16384x16384)"
+        )));
+    }
+    Ok(())
+}
 
 /// An image's rows in tiles of at most `max_rows` (and at least 1), as even as they come.
 pub fn tile_rows(height: u32, max_rows: u32) -> Vec<std::ops::Range<u32>> {

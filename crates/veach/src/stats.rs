@@ -57,6 +57,38 @@ pub struct SettingsReport {
     pub camera: String,
 }
 
+impl SettingsReport {
+    pub fn new(settings: &RenderSettings, camera_name: &str) -> SettingsReport {
+        SettingsReport {
+            width: settings.width,
+            height: settings.height,
+            strategy: settings.strategy.name().into(),
+            light_samples: settings.light_samples,
+            brdf_samples: settings.brdf_samples,
+            heuristic: format!("{:?}", settings.heuristic).to_lowercase(),
+            light_selection: format!("{:?}", settings.light_selection).to_lowercase(),
+            light_sampling: settings.light_sampling.name().into(),
+            control_variate: settings.control_variate,
+            sampler: settings.sampler.name().into(),
+            seed: settings.seed,
+            camera: camera_name.into(),
+        }
+    }
+
+    /// Each setting as (name, value) text, named as in the JSON (an EXR header's attributes).
+    pub fn fields(&self) -> Vec<(String, String)> {
+        let serde_json::Value::Object(map) = serde_json::to_value(self).expect("plain fields") else {
+            unreachable!("a struct serialises to an object")
+        };
+        map.into_iter()
+            .map(|(name, value)| match value {
+                serde_json::Value::String(s) => (name, s),
+                other => (name, other.to_string()),
+            })
+            .collect()
+    }
+}
+
 #[derive(Serialize)]
 pub struct Timings {
     pub load: f64,
@@ -112,20 +144,7 @@ pub fn render_stats(
             (None, true) => "generic, wavefront".into(),
             (Some(_), _) => format!("specialised {:?}", out.kernel),
         },
-        settings: SettingsReport {
-            width: settings.width,
-            height: settings.height,
-            strategy: settings.strategy.name().into(),
-            light_samples: settings.light_samples,
-            brdf_samples: settings.brdf_samples,
-            heuristic: format!("{:?}", settings.heuristic).to_lowercase(),
-            light_selection: format!("{:?}", settings.light_selection).to_lowercase(),
-            light_sampling: settings.light_sampling.name().into(),
-            control_variate: settings.control_variate,
-            sampler: settings.sampler.name().into(),
-            seed: settings.seed,
-            camera: camera_name.into(),
-        },
+        settings: SettingsReport::new(settings, camera_name),
         timings_seconds: Timings {
             load: load_seconds,
             bvh_build: setup.bvh_build.as_secs_f64(),
