@@ -62,15 +62,20 @@ fn renders_exr_png_and_pfm_with_stats() {
         }
         assert!(s["adapter"].as_str().is_some_and(|a| !a.is_empty()));
     }
-    // The same render in both float formats: the same pixels; the EXR's header names its settings.
+    // The same render in both float formats: the same pixels. The EXR's and the PNG's headers
+    // name the settings (the PNG's its exposure too).
     let exr = veach::image_io::read_image(&dir.join("cornell.exr")).unwrap();
     assert_eq!(exr, veach::image_io::read_image(&dir.join("cornell.pfm")).unwrap());
-    let meta = veach::image_io::read_exr_metadata(&dir.join("cornell.exr")).unwrap();
-    let value = |name: &str| meta.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_str());
-    assert_eq!(value("veach:strategy"), Some("mis"), "{meta:?}");
-    assert_eq!(value("veach:light_samples"), Some("2"), "{meta:?}");
-    assert_eq!(value("veach:spp"), Some("2.000"), "{meta:?}");
-    assert!(value("veach:scene").is_some_and(|s| s.ends_with("cornell-box.gltf")), "{meta:?}");
+    for ext in ["exr", "png"] {
+        let meta = veach::image_io::read_metadata(&dir.join(format!("cornell.{ext}"))).unwrap();
+        let value = |name: &str| meta.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_str());
+        assert_eq!(value("veach:strategy"), Some("mis"), "{meta:?}");
+        assert_eq!(value("veach:light_samples"), Some("2"), "{meta:?}");
+        assert_eq!(value("veach:spp"), Some("2.000"), "{meta:?}");
+        assert_eq!(value("veach:camera_yfov_degrees").map(|v| v.parse::<f32>().is_ok()), Some(true), "{meta:?}");
+        assert!(value("veach:scene").is_some_and(|s| s.ends_with("cornell-box.gltf")), "{meta:?}");
+        assert_eq!(value("veach:exposure").is_some(), ext == "png", "{meta:?}");
+    }
 }
 
 #[test]

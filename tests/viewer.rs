@@ -200,6 +200,12 @@ fn error_curve_falls_as_samples_accumulate_and_saves_as_csv() {
     let (w, hgt, pixels) = veach::image_io::read_image(&exr).unwrap();
     assert_eq!((w, hgt), (48, 48));
     assert!(pixels.iter().all(|p| p.iter().all(|v| v.is_finite())));
+    // The saved image records the settings shown, as `veach render` does.
+    let meta = veach::image_io::read_metadata(&exr).unwrap();
+    let value = |name: &str| meta.iter().find(|(n, _)| n == name).map(|(_, v)| v.to_string());
+    assert_eq!(value("veach:width"), Some("48".into()), "{meta:?}");
+    let strategy = h.state().controls.strategy.name();
+    assert_eq!(value("veach:strategy").as_deref(), Some(strategy), "{meta:?}");
 }
 
 #[test]

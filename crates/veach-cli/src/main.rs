@@ -673,18 +673,12 @@ fn render(args: RenderArgs) -> Result<()> {
         say("interrupted: writing the samples accumulated so far".into());
     }
 
-    // What made the image, in an EXR file's header (`veach::image_io::read_exr_metadata`).
-    // The settings as --stats names them, and what the render reached.
-    let mut metadata = veach::stats::SettingsReport::new(&settings, &camera.name).fields();
-    metadata.extend([
-        ("version".into(), env!("CARGO_PKG_VERSION").to_string()),
-        ("scene".into(), args.scene.display().to_string()),
-        ("hide_emitters".into(), settings.hide_emitters.to_string()),
-        ("spp".into(), format!("{:.3}", out.mean_samples())),
-        ("render_seconds".into(), format!("{:.6}", out.render_time.as_secs_f64())),
-        ("adapter".into(), renderer.gpu.describe()),
-    ]);
-    let metadata: Vec<(String, String)> = metadata.into_iter().map(|(name, v)| (format!("veach:{name}"), v)).collect();
+    // What made the image, in an EXR or PNG file's header (`veach::image_io::read_metadata`).
+    let made_by = veach::stats::image_metadata(&settings, &camera, &args.scene, &out, &renderer);
+    let mut metadata = made_by.clone();
+    if veach::image_io::ImageFormat::from_path(&args.output)? == veach::image_io::ImageFormat::Png {
+        metadata.push(("veach:exposure".into(), args.exposure.to_string()));
+    }
     veach::image_io::write_image_with_metadata(
         &args.output,
         out.width,
@@ -711,7 +705,7 @@ fn render(args: RenderArgs) -> Result<()> {
         if args.aov.contains(&AovArg::Weights) {
             let path = sibling("weights", "png");
             let colours = veach::image_io::light_share_false_colour(light, brdf, emitted);
-            veach::image_io::write_image(&path, out.width, out.height, &colours, 0.0)?;
+            veach::image_io::write_image_with_metadata(&path, out.width, out.height, &colours, 0.0, &made_by)?;
             written.push(path);
         }
         let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();

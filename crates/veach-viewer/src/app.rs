@@ -316,10 +316,25 @@ impl ViewerApp {
         Ok(())
     }
 
-    /// Saves the current image (linear EXR/PFM, or PNG after exposure).
+    /// Saves the current image (linear EXR/PFM, or PNG after exposure), an EXR or PNG with the
+    /// settings that made it in its header, as `veach render` writes them.
     pub fn save_image(&self, path: &Path) -> veach::Result<()> {
-        let out = self.session.latest().ok_or_else(|| veach::Error::Options("nothing rendered yet".into()))?;
-        veach::image_io::write_image(path, out.width, out.height, &out.mean(), self.controls.exposure)
+        let nothing = || veach::Error::Options("nothing rendered yet".into());
+        let out = self.session.latest().ok_or_else(nothing)?;
+        let (settings, camera) = self.current.as_ref().ok_or_else(nothing)?;
+        let scene = &self.session.loaded.path;
+        let mut metadata = veach::stats::image_metadata(settings, camera, scene, out, &self.session.renderer);
+        if veach::image_io::ImageFormat::from_path(path)? == veach::image_io::ImageFormat::Png {
+            metadata.push(("veach:exposure".into(), self.controls.exposure.to_string()));
+        }
+        veach::image_io::write_image_with_metadata(
+            path,
+            out.width,
+            out.height,
+            &out.mean(),
+            self.controls.exposure,
+            &metadata,
+        )
     }
 
     fn report<T>(&mut self, result: veach::Result<T>, ok: String) {

@@ -70,9 +70,9 @@ pub fn write_image(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]], ex
     write_image_with_metadata(path, width, height, pixels, exposure, &[])
 }
 
-/// `write_image`, with `metadata` (name, value) as text attributes of an EXR file's header
-/// (`veach render` records its settings there; PNG and PFM carry none). Characters outside
-/// Latin-1, which EXR text cannot hold, become '?'.
+/// `write_image`, with `metadata` (name, value) in the file's header: text attributes of an EXR,
+/// iTXt chunks of a PNG (`veach render` records its settings there; PFM has no place for them).
+/// Characters outside Latin-1, which EXR text cannot hold, become '?' in an EXR.
 pub fn write_image_with_metadata(
     path: &Path,
     width: u32,
@@ -88,16 +88,37 @@ pub fn write_image_with_metadata(
         ImageFormat::Exr => write_exr(file, width, height, &clean, metadata),
         ImageFormat::Png => {
             let scale = 2f32.powf(exposure);
-            let data: Vec<u8> = clean
+            let srgb: Vec<u8> = clean
                 .iter()
                 .flatten()
                 .map(|&v| (linear_to_srgb((v * scale).clamp(0.0, 1.0)) * 255.0 + 0.5) as u8)
                 .collect();
-            let img = image::RgbImage::from_raw(width, height, data).expect("pixel count checked");
-            img.write_to(file, image::ImageFormat::Png).map_err(|e| e.to_string())
+            write_png(file, width, height, &srgb, metadata).map_err(|e| e.to_string())
         }
         ImageFormat::Pfm => write_pfm(file, width, height, &clean).map_err(|e| e.to_string()),
     })
+}
+
+/// 8-bit RGB, rows top first, marked as sRGB (the sRGB chunk, PNG spec 3rd ed. §11.3.3.5);
+/// each metadata pair an iTXt chunk (UTF-8 text, §11.3.3.4).
+fn write_png(
+    file: &mut BufWriter<std::fs::File>,
+    width: u32,
+    height: u32,
+    srgb: &[u8],
+    metadata: &[(String, String)],
+) -> std::result::Result<(), png::EncodingError> {
+    let mut encoder = png::Encoder::new(file, width, height);
+    encoder.set_color(png::ColorType::Rgb);
+    encoder.set_depth(png::BitDepth::Eight);
+    encoder.set_source_srgb(png::SrgbRenderingIntent::Perceptual);
+    encoder.add_text_chunk("Software".into(), "veach".into())?;
+    for (name, value) in metadata {
+        encoder.add_itxt_chunk(name.clone(), value.clone())?;
+    }
+    let mut writer = encoder.write_header()?;
+    writer.write_image_data(srgb)?;
+    writer.finish()
 }
 
 fn write_exr(
@@ -123,17 +144,35 @@ fn write_exr(
     Image::from_layer(layer).write().non_parallel().to_buffered(file).map_err(|e| e.to_string())
 }
 
-/// The text attributes of an EXR file's header (`write_image_with_metadata`), name and value.
-pub fn read_exr_metadata(path: &Path) -> Result<Vec<(String, String)>> {
+/// The metadata in an image file's header (`write_image_with_metadata`), name and value, sorted
+/// by name: an EXR's text attributes, a PNG's text chunks; none for PFM.
+pub fn read_metadata(path: &Path) -> Result<Vec<(String, String)>> {
     let err = |m: String| Error::Output { path: path.to_owned(), message: m };
-    let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| err(e.to_string()))?;
     let mut found = Vec::new();
-    for header in &meta.headers {
-        for (name, value) in &header.own_attributes.other {
-            if let exr::meta::attribute::AttributeValue::Text(t) = value {
-                found.push((name.to_string(), t.to_string()));
+    match ImageFormat::from_path(path)? {
+        ImageFormat::Exr => {
+            let meta = exr::meta::MetaData::read_from_file(path, false).map_err(|e| err(e.to_string()))?;
+            for header in &meta.headers {
+                for (name, value) in &header.own_attributes.other {
+                    if let exr::meta::attribute::AttributeValue::Text(t) = value {
+                        found.push((name.to_string(), t.to_string()));
+                    }
+                }
             }
         }
+        ImageFormat::Png => {
+            let file = std::fs::File::open(path).map_err(|e| err(e.to_string()))?;
+            let reader =
+                png::Decoder::new(std::io::BufReader::new(file)).read_info().map_err(|e| err(e.to_string()))?;
+            let info = reader.info();
+            for chunk in &info.uncompressed_latin1_text {
+                found.push((chunk.keyword.clone(), chunk.text.clone()));
+            }
+            for chunk in &info.utf8_text {
+                found.push((chunk.keyword.clone(), chunk.get_text().map_err(|e| err(e.to_string()))?));
+            }
+        }
+        ImageFormat::Pfm => {}
     }
     found.sort();
     Ok(found)
@@ -268,6 +307,28 @@ mod tests {
         let png = image::open(&p).unwrap().into_rgb8();
         assert_eq!(png.get_pixel(0, 0).0, [188; 3]); // sRGB(0.5) = 0.7354 → 188
         assert_eq!(png.get_pixel(1, 0).0, [255; 3]);
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn exr_and_png_headers_carry_the_metadata_and_pfm_none() {
+        let dir = std::env::temp_dir().join(format!("veach-meta-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let metadata = vec![("veach:scene".to_string(), "scène/ƒ.gltf".to_string()), ("veach:spp".into(), "4".into())];
+        let pixels = [[0.5f32; 3]; 6];
+        for (ext, scene) in [("exr", "scène/?.gltf"), ("png", "scène/ƒ.gltf")] {
+            let p = dir.join(format!("m.{ext}"));
+            write_image_with_metadata(&p, 3, 2, &pixels, 0.0, &metadata).unwrap();
+            let back = read_metadata(&p).unwrap();
+            let value = |name: &str| back.iter().find(|(n, _)| n == name).map(|(_, v)| v.as_str());
+            // EXR text is Latin-1 (ƒ is not), PNG's iTXt UTF-8.
+            assert_eq!(value("veach:scene"), Some(scene), "{ext}: {back:?}");
+            assert_eq!(value("veach:spp"), Some("4"), "{ext}: {back:?}");
+            assert_eq!(read_image(&p).unwrap().2.len(), 6);
+        }
+        let p = dir.join("m.pfm");
+        write_image_with_metadata(&p, 3, 2, &pixels, 0.0, &metadata).unwrap();
+        assert!(read_metadata(&p).unwrap().is_empty());
         let _ = std::fs::remove_dir_all(&dir);
     }
 

@@ -1,7 +1,7 @@
 //! The `--stats` JSON report of a render.
 
 use crate::render::{GpuScene, RenderOutput, RenderSettings, Renderer};
-use crate::scene::Scene;
+use crate::scene::{Camera, Scene};
 use serde::Serialize;
 
 #[derive(Serialize)]
@@ -87,6 +87,34 @@ impl SettingsReport {
             })
             .collect()
     }
+}
+
+/// What made an image, for its file's header (EXR text attributes, PNG iTXt chunks; read back with
+/// `image_io::read_metadata`): the settings as `--stats` names them, and what the render reached.
+/// Every name carries the `veach:` prefix.
+pub fn image_metadata(
+    settings: &RenderSettings,
+    camera: &Camera,
+    scene_path: &std::path::Path,
+    out: &RenderOutput,
+    renderer: &Renderer,
+) -> Vec<(String, String)> {
+    let mut fields = SettingsReport::new(settings, &camera.name).fields();
+    // Where the camera was: the viewer's orbit moves it away from the scene camera it is named after.
+    let vector = |v: glam::Vec3| format!("{} {} {}", v.x + 0.0, v.y + 0.0, v.z + 0.0); // + 0.0: no "-0"
+    fields.extend([
+        ("camera_position".into(), vector(camera.position)),
+        ("camera_forward".into(), vector(camera.forward)),
+        ("camera_up".into(), vector(camera.up)),
+        ("camera_yfov_degrees".into(), camera.yfov.to_degrees().to_string()),
+        ("version".into(), env!("CARGO_PKG_VERSION").to_string()),
+        ("scene".into(), scene_path.display().to_string()),
+        ("hide_emitters".into(), settings.hide_emitters.to_string()),
+        ("spp".into(), format!("{:.3}", out.mean_samples())),
+        ("render_seconds".into(), format!("{:.6}", out.render_time.as_secs_f64())),
+        ("adapter".into(), renderer.gpu.describe()),
+    ]);
+    fields.into_iter().map(|(name, value)| (format!("veach:{name}"), value)).collect()
 }
 
 #[derive(Serialize)]
