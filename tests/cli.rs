@@ -112,7 +112,15 @@ fn a_bad_scene_is_a_clear_error_and_leaves_the_old_output_alone() {
     let o = veach(&[&["render", &assets("cornell-box.gltf"), "-o", out.to_str().unwrap()][..], &size].concat());
     let e = stderr(&o);
     assert!(o.status.code() == Some(1) && e.contains("100000x100000") && !e.contains("adapter:"), "{e}");
-    for (flag, value) in [("--time-limit", "1e30"), ("--time-limit", "nan"), ("--exposure", "inf")] {
+    // Values whose sums would wrap in 32 bits among them (4294967295 + 32 light and BRDF samples).
+    let refused = [
+        ("--time-limit", "1e30"),
+        ("--time-limit", "nan"),
+        ("--exposure", "inf"),
+        ("--light-samples", "4294967295"),
+        ("--brdf-samples", "2000000"),
+    ];
+    for (flag, value) in refused {
         let o = veach(&["render", &assets("cornell-box.gltf"), "-o", out.to_str().unwrap(), flag, value]);
         let e = stderr(&o);
         assert!(o.status.code() == Some(1) && e.contains(flag) && !e.contains("panicked"), "{flag} {value}: {e}");

@@ -179,10 +179,12 @@ enum SelectionArg {
     mis:     --light-samples light + --brdf-samples BRDF samples, MIS-weighted (default 32 + 32)
   With --light-selection each, every light gets --light-samples samples; with uniform or power,
   --light-samples lights are chosen (one per sample). The defaults reproduce the classic
-  comparison of MIS with 32 + 32 samples against uniform sampling with 1024.
+  comparison of MIS with 32 + 32 samples against uniform sampling with 1024. Each count is at
+  most 1048576 (2^20) per camera sample; more samples than that are more camera samples.
 
 OUTPUT
   By extension: .exr (linear float RGB), .png (8-bit sRGB after --exposure, clamped), .pfm.
+  EXR and PNG headers record the settings that made the image (veach:* text).
   The file is written whole or not at all; Ctrl-C stops early and writes what was accumulated.")]
 struct RenderArgs {
     /// glTF scene (.gltf or .glb)
@@ -435,6 +437,7 @@ fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
         bail!("--width and --height must be at least 1");
     }
     veach::render::check_image_size(args.width, args.height)?;
+    veach::render::check_sample_counts(light_samples, brdf_samples)?;
     let time_limit = match args.time_limit {
         Some(t) if !(t.is_finite() && t > 0.0) => {
             bail!("--time-limit must be a positive number of seconds")
@@ -506,6 +509,7 @@ fn view(args: ViewArgs) -> Result<()> {
     {
         bail!("{}: --screenshot writes PNG; give a .png file", path.display());
     }
+    veach::render::check_sample_counts(args.light_samples.unwrap_or(0), args.brdf_samples.unwrap_or(0))?;
     // Fail on a bad scene or reference here, with the file's name, before opening a window.
     let scene = veach::load_gltf(&args.scene)?;
     scene.camera(args.camera.as_deref()).map_err(|m| anyhow::anyhow!("{}: {m}", args.scene.display()))?;

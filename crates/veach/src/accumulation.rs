@@ -139,6 +139,7 @@ impl Accumulation {
         if rows.is_empty() || rows.end > image.height {
             return Err(Error::Options(format!("rows {rows:?} are not a tile of {} rows", image.height)));
         }
+        crate::render::check_sample_counts(image.light_samples, image.brdf_samples)?;
         let settings = &RenderSettings { height: rows.len() as u32, ..image.clone() };
         let (w, h) = (settings.width, settings.height);
         let pixels = w as u64 * h as u64;
@@ -427,7 +428,7 @@ impl Accumulation {
                 return Err(Error::Gpu(format!(
                     "a camera sample needs more loop iterations than this driver allows in one \
                      invocation (Mesa 22's lavapipe: 65,535); take fewer samples per camera sample \
-                     (now {}{} light + {} BRDF) or use Mesa 23 or later",
+                     (now {} light samples{} + {} BRDF samples) or use Mesa 23 or later",
                     self.settings.light_samples,
                     if self.settings.light_selection == crate::render::LightSelection::Each
                         && self.settings.strategy.samples_lights()

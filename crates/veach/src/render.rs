@@ -964,6 +964,24 @@ pub fn check_image_size(width: u32, height: u32) -> Result<()> {
     Ok(())
 }
 
+/// The most light samples, and the most BRDF samples, one camera sample takes: 2^20. Their sum,
+/// a pixel's ray count and the kernels' loop counters are 32-bit; past this, more camera samples
+/// (`spp`) are the way to more samples.
+pub const MAX_SAMPLES_PER_CAMERA_SAMPLE: u32 = 1 << 20;
+
+/// Refuses sample counts above `MAX_SAMPLES_PER_CAMERA_SAMPLE` (`Accumulation` does; the CLI
+/// before it loads anything).
+pub fn check_sample_counts(light_samples: u32, brdf_samples: u32) -> Result<()> {
+    for (flag, n) in [("--light-samples", light_samples), ("--brdf-samples", brdf_samples)] {
+        if n > MAX_SAMPLES_PER_CAMERA_SAMPLE {
+            return Err(Error::Options(format!(
+                "{flag} {n}: at most {MAX_SAMPLES_PER_CAMERA_SAMPLE} per camera sample; take more camera samples (--spp) instead"
+            )));
+        }
+    }
+    Ok(())
+}
+
 /// An image's rows in tiles of at most `max_rows` (and at least 1), as even as they come.
 pub fn tile_rows(height: u32, max_rows: u32) -> Vec<std::ops::Range<u32>> {
     let count = height.div_ceil(max_rows.max(1)).max(1);
