@@ -5,7 +5,8 @@
 use std::path::PathBuf;
 use std::sync::OnceLock;
 use veach::assets::gltf_writer::GltfBuilder;
-use veach::render::{GpuScene, RenderOutput};
+use veach::output::RenderOutput;
+use veach::render::GpuScene;
 use veach::scene::{Camera, Scene};
 use veach::{GpuContext, RenderSettings, Renderer};
 

@@ -436,8 +436,8 @@ fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
     if args.width == 0 || args.height == 0 {
         bail!("--width and --height must be at least 1");
     }
-    veach::render::check_image_size(args.width, args.height)?;
-    veach::render::check_sample_counts(light_samples, brdf_samples)?;
+    veach::settings::check_image_size(args.width, args.height)?;
+    veach::settings::check_sample_counts(light_samples, brdf_samples)?;
     let time_limit = match args.time_limit {
         Some(t) if !(t.is_finite() && t > 0.0) => {
             bail!("--time-limit must be a positive number of seconds")
@@ -509,7 +509,7 @@ fn view(args: ViewArgs) -> Result<()> {
     {
         bail!("{}: --screenshot writes PNG; give a .png file", path.display());
     }
-    veach::render::check_sample_counts(args.light_samples.unwrap_or(0), args.brdf_samples.unwrap_or(0))?;
+    veach::settings::check_sample_counts(args.light_samples.unwrap_or(0), args.brdf_samples.unwrap_or(0))?;
     // Fail on a bad scene or reference here, with the file's name, before opening a window.
     let scene = veach::load_gltf(&args.scene)?;
     scene.camera(args.camera.as_deref()).map_err(|m| anyhow::anyhow!("{}: {m}", args.scene.display()))?;

@@ -7,8 +7,10 @@ use crate::features::{AutoExecution, KernelKey};
 use crate::gpu::bindings;
 use crate::gpu::context::GpuContext;
 use crate::gpu::layout::{DEFERRED_WORKGROUP, DeferredSample, FrameParams, PixelCounters, WORKGROUP_SIZE};
-use crate::render::{Contributions, GpuScene, GpuTimer, Kernel, RenderOutput, RenderSettings, Renderer, read_buffer};
+use crate::output::{Contributions, RenderOutput};
+use crate::render::{GpuScene, GpuTimer, Kernel, Renderer, read_buffer};
 use crate::scene::Camera;
+use crate::settings::RenderSettings;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
@@ -139,7 +141,7 @@ impl Accumulation {
         if rows.is_empty() || rows.end > image.height {
             return Err(Error::Options(format!("rows {rows:?} are not a tile of {} rows", image.height)));
         }
-        crate::render::check_sample_counts(image.light_samples, image.brdf_samples)?;
+        crate::settings::check_sample_counts(image.light_samples, image.brdf_samples)?;
         let settings = &RenderSettings { height: rows.len() as u32, ..image.clone() };
         let (w, h) = (settings.width, settings.height);
         let pixels = w as u64 * h as u64;
@@ -430,7 +432,7 @@ impl Accumulation {
                      invocation (Mesa 22's lavapipe: 65,535); take fewer samples per camera sample \
                      (now {} light samples{} + {} BRDF samples) or use Mesa 23 or later",
                     self.settings.light_samples,
-                    if self.settings.light_selection == crate::render::LightSelection::Each
+                    if self.settings.light_selection == crate::settings::LightSelection::Each
                         && self.settings.strategy.samples_lights()
                     {
                         " per light"

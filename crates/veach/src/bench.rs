@@ -7,10 +7,10 @@
 //! time each strategy needs to reach a target error and the fitted convergence slope.
 
 use crate::error::{Error, Result};
-use crate::render::{
-    GpuScene, Heuristic, LightSampling, LightSelection, RenderOutput, RenderSettings, Renderer, Sampler, Strategy,
-};
+use crate::output::RenderOutput;
+use crate::render::{GpuScene, Renderer};
 use crate::scene::Camera;
+use crate::settings::{Heuristic, LightSampling, LightSelection, RenderSettings, Sampler, Strategy};
 use std::time::Duration;
 
 /// Bench renders leave out emitters seen directly: every strategy sees them through the same

@@ -4,8 +4,9 @@
 use crate::bench::*;
 use crate::error::{Error, Result};
 use crate::image_io;
-use crate::render::{GpuScene, RenderSettings, Renderer};
+use crate::render::{GpuScene, Renderer};
 use crate::scene::{Camera, Scene};
+use crate::settings::RenderSettings;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 

@@ -11,7 +11,7 @@
 
 use crate::error::{Error, Result};
 use crate::features::{SceneFeatures, effective_strategy};
-use crate::render::{LightSampling, RenderSettings, Strategy};
+use crate::settings::{LightSampling, RenderSettings, Strategy};
 
 /// Emitter triangles the kernel integrates one by one at each shading point.
 pub const MAX_CONTROL_VARIATE_TRIANGLES: u32 = 32;

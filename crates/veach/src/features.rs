@@ -1,8 +1,8 @@
 //! Scene features, detected on load, and the kernel key they give: the set of WGSL override
 //! constants (`shaders/features.wgsl`) that specialise the kernel to one scene and strategy.
 
-use crate::render::{Execution, RenderSettings, Strategy};
 use crate::scene::{LightKind, Scene};
+use crate::settings::{Execution, RenderSettings, Strategy};
 use serde::Serialize;
 
 /// What a scene contains that the kernel may need code for.
@@ -251,7 +251,7 @@ impl KernelKey {
     /// The kernel specialised to a scene's features and a render's settings.
     pub fn specialised(features: &SceneFeatures, settings: &RenderSettings, auto: AutoExecution) -> KernelKey {
         let parallelograms =
-            features.parallelogram_lights && settings.light_sampling != crate::render::LightSampling::SolidAngle;
+            features.parallelogram_lights && settings.light_sampling != crate::settings::LightSampling::SolidAngle;
         let (at_most_one_light_request, at_most_one_direction_sample) = at_most_one_sample(features, settings);
         KernelKey {
             strategy: Some(effective_strategy(features, settings).0),
@@ -260,13 +260,14 @@ impl KernelKey {
             glossy: features.any_glossy,
             mirrors: features.any_mirror,
             aovs: settings.write_aovs,
-            solid_angle: features.area_lights && settings.light_sampling == crate::render::LightSampling::SolidAngle,
-            cone: features.round_lights && settings.light_sampling == crate::render::LightSampling::Cone,
-            shadow_rays: !(features.all_lights_round && settings.light_sampling == crate::render::LightSampling::Cone),
+            solid_angle: features.area_lights && settings.light_sampling == crate::settings::LightSampling::SolidAngle,
+            cone: features.round_lights && settings.light_sampling == crate::settings::LightSampling::Cone,
+            shadow_rays: !(features.all_lights_round
+                && settings.light_sampling == crate::settings::LightSampling::Cone),
             parallelograms,
             triangle_picks: !(parallelograms && features.all_area_lights_parallelograms),
             point_selection: !features.single_light
-                && settings.light_selection == crate::render::LightSelection::Bsdf
+                && settings.light_selection == crate::settings::LightSelection::Bsdf
                 && effective_strategy(features, settings).0.samples_lights(),
             single_light: features.single_light,
             textures: features.textures(),
@@ -343,7 +344,7 @@ pub fn at_most_one_sample(features: &SceneFeatures, settings: &RenderSettings) -
         Strategy::Mis => (n, m),
         Strategy::MisLobes => (n + m, m),
     };
-    let lights = if settings.light_selection == crate::render::LightSelection::Each && !features.single_light {
+    let lights = if settings.light_selection == crate::settings::LightSelection::Each && !features.single_light {
         u32::MAX
     } else {
         1
@@ -423,7 +424,7 @@ pub fn uses_wavefront(features: &SceneFeatures, settings: &RenderSettings, auto:
 #[cfg(test)]
 mod tests {
     use super::{AutoExecution, SceneFeatures, at_most_one_sample};
-    use crate::render::{LightSelection, RenderSettings, Strategy};
+    use crate::settings::{LightSelection, RenderSettings, Strategy};
 
     /// The flags must bound every plan the kernel makes: a flag set where a point could take two
     /// samples would drop the second.

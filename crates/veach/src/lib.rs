@@ -16,17 +16,18 @@ pub mod features;
 pub mod gpu;
 pub mod image_io;
 pub mod mitsuba;
+pub mod output;
 pub mod render;
 pub mod scale;
 pub mod scene;
+pub mod settings;
 pub mod shaders;
 pub mod stats;
 
 pub use accumulation::Accumulation;
 pub use error::{Error, Result};
 pub use gpu::context::GpuContext;
-pub use render::{
-    BvhMemory, Execution, GpuScene, Heuristic, LightSampling, LightSelection, RenderOutput, RenderSettings, Renderer,
-    Sampler, Strategy,
-};
+pub use output::RenderOutput;
+pub use render::{BvhMemory, GpuScene, Renderer};
 pub use scene::{Scene, load_gltf};
+pub use settings::{Execution, Heuristic, LightSampling, LightSelection, RenderSettings, Sampler, Strategy};

@@ -1,7 +1,9 @@
 //! The `--stats` JSON report of a render.
 
-use crate::render::{GpuScene, RenderOutput, RenderSettings, Renderer};
+use crate::output::RenderOutput;
+use crate::render::{GpuScene, Renderer};
 use crate::scene::{Camera, Scene};
+use crate::settings::RenderSettings;
 use serde::Serialize;
 
 #[derive(Serialize)]
