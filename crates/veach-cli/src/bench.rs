@@ -1,0 +1,197 @@
+//! `veach bench`: error against render time for every strategy.
+
+use anyhow::{Context, Result, bail};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::PathBuf;
+use std::time::Duration;
+use veach::{GpuContext, Renderer, Strategy};
+
+#[derive(clap::Args)]
+#[command(after_long_help = "For each scene: a reference (--reference, or MIS rendered at --reference-spp and cached \
+in DIR), then every strategy at budgets 1, 2, 4 ... --max-spp camera samples per pixel (or, with --time-budgets, \
+--min-seconds, 2x ... --max-seconds) over --seeds seeds, then every strategy at equal time. Each camera sample \
+takes 2 uniform, 2 BRDF, 2 light or 1 + 1 MIS samples (one light chosen by power per light sample), so all \
+strategies trace about the same rays per sample. Render time is measured by GPU timestamps where the adapter \
+has them (else wall clock), without kernel compilation or uploads.
+
+Writes DIR/results.csv, DIR/report.md, DIR/SCENE-relmse.svg (log-log relMSE against seconds) and \
+DIR/SCENE-equal-time.png (reference and every strategy at equal time, with an enlarged crop).")]
+pub struct BenchArgs {
+    /// glTF scenes
+    #[arg(required = true)]
+    scenes: Vec<PathBuf>,
+    /// Output directory
+    #[arg(short, long, default_value = "bench-out")]
+    output: PathBuf,
+    #[arg(long, default_value_t = 128)]
+    width: u32,
+    #[arg(long, default_value_t = 128)]
+    height: u32,
+    /// Largest budget in camera samples per pixel (budgets double from 1)
+    #[arg(long, default_value_t = 64)]
+    max_spp: u32,
+    /// Budgets in seconds instead of samples
+    #[arg(long)]
+    time_budgets: bool,
+    #[arg(long, default_value_t = 0.05)]
+    min_seconds: f64,
+    #[arg(long, default_value_t = 1.6)]
+    max_seconds: f64,
+    /// Renders per budget (seeds 1..=N); the report gives the median and spread
+    #[arg(long, default_value_t = 3)]
+    seeds: u32,
+    /// Reference image (linear .exr or .pfm, same size) instead of rendering one
+    #[arg(long)]
+    reference: Option<PathBuf>,
+    /// Camera samples per pixel of the rendered reference [default: 16 × --max-spp, at least 256]
+    #[arg(long)]
+    reference_spp: Option<u32>,
+    /// Strategies to compare, comma-separated [default: uniform,brdf,light,mis-balance,mis-power,
+    /// mis-lobes]; add -solid-angle to a light-sampling one for solid-angle sampling of
+    /// emitter triangles (e.g. light-solid-angle), -cone for round lights by their bounding cones,
+    /// or -cv to any but mis-lobes for the unshadowed light as a control variate (e.g.
+    /// mis-power-cv), then -independent for independent random numbers instead of Sobol points
+    /// (e.g. mis-power-independent, light-solid-angle-independent)
+    #[arg(long, value_name = "NAMES")]
+    strategies: Option<String>,
+    /// Seconds of the equal-time comparison [default: mis-balance's time at the largest budget]
+    #[arg(long)]
+    equal_time: Option<f64>,
+    /// Use the adapter whose name contains this text (also VEACH_ADAPTER)
+    #[arg(long)]
+    adapter: Option<String>,
+}
+
+pub fn bench(args: BenchArgs) -> Result<()> {
+    use veach::bench::Budget;
+    use veach::bench_run::{BenchConfig, bench_scene, bench_units, csv, slope_warnings};
+    if args.width == 0 || args.height == 0 || args.max_spp == 0 || args.seeds == 0 {
+        bail!("--width, --height, --max-spp and --seeds must be at least 1");
+    }
+    let budgets: Vec<Budget> = if args.time_budgets {
+        if !(args.min_seconds > 0.0 && args.max_seconds >= args.min_seconds && seconds(args.max_seconds)) {
+            bail!("--min-seconds must be positive and at most --max-seconds, a finite number of seconds");
+        }
+        std::iter::successors(Some(args.min_seconds), |t| Some(t * 2.0))
+            .take_while(|t| *t <= args.max_seconds * 1.0001)
+            .map(Budget::Seconds)
+            .collect()
+    } else {
+        std::iter::successors(Some(1u32), |n| n.checked_mul(2))
+            .take_while(|n| *n <= args.max_spp)
+            .map(Budget::Spp)
+            .collect()
+    };
+    if args.equal_time.is_some_and(|t| !(t > 0.0 && seconds(t))) {
+        bail!("--equal-time must be a positive, finite number of seconds");
+    }
+    if args.strategies.as_deref().is_some_and(|s| s.split(',').all(|n| n.trim().is_empty())) {
+        bail!("--strategies names no strategy");
+    }
+    std::fs::create_dir_all(&args.output).with_context(|| format!("cannot create {}", args.output.display()))?;
+    let config = BenchConfig {
+        width: args.width,
+        height: args.height,
+        budgets,
+        seeds: args.seeds,
+        strategies: match &args.strategies {
+            Some(names) => veach::bench::strategies_by_name(names).map_err(|e| anyhow::anyhow!(e))?,
+            None => veach::bench::default_strategies(),
+        },
+        reference_spp: args.reference_spp.unwrap_or((16 * args.max_spp).max(256)),
+        reference: args.reference.clone(),
+        equal_time: args.equal_time,
+        out_dir: args.output.clone(),
+    };
+    // Load every scene first: a bad file fails before any time is spent.
+    let mut scenes = Vec::new();
+    for path in &args.scenes {
+        let scene = veach::load_gltf(path)?;
+        let camera = scene.camera(None).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
+        scenes.push((path, scene, camera));
+    }
+    let gpu = GpuContext::new(args.adapter.as_deref())?;
+    eprintln!("adapter: {}; driver: {}", gpu.describe(), gpu.driver());
+    let renderer = Renderer::new(gpu)?;
+    let per_scene = bench_units(&config);
+    let total = per_scene * scenes.len() as u64;
+    let bar = ProgressBar::new(total);
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} eta {eta} {msg}")
+            .expect("valid template"),
+    );
+    let mut rows = Vec::new();
+    let counts: Vec<String> = config
+        .strategies
+        .iter()
+        .map(|s| match s.strategy {
+            Strategy::Uniform | Strategy::Brdf => format!("{} {}", s.name, s.brdf_samples),
+            Strategy::Light => format!("{} {}", s.name, s.light_samples),
+            Strategy::Mis | Strategy::MisLobes => format!("{} {} + {}", s.name, s.light_samples, s.brdf_samples),
+        })
+        .collect();
+    let mut report = format!(
+        "# veach bench\n\nAdapter: {}; driver: {}. Samples per camera sample: {} (one light chosen by power per light \
+         sample). Times are render times only ({}).\n\n",
+        renderer.gpu.describe(),
+        renderer.gpu.driver(),
+        counts.join(", "),
+        if renderer.gpu.has_timestamps { "GPU timestamps" } else { "wall clock around submit and wait" }
+    );
+    let mut summaries = Vec::new();
+    for (k, (path, scene, camera)) in scenes.iter().enumerate() {
+        let gpu_scene = renderer.upload_scene(scene)?;
+        let result = bench_scene(
+            &renderer,
+            scene,
+            &gpu_scene,
+            camera,
+            path,
+            &config,
+            &mut |done, _, msg| {
+                bar.set_position(done);
+                bar.set_message(msg.to_owned());
+            },
+            k as u64 * per_scene,
+            total,
+        )?;
+        rows.extend(result.rows.iter().cloned());
+        report.push_str(&result.report);
+        summaries.push(result);
+    }
+    bar.finish_and_clear();
+    let write_text = |name: &str, text: &str| -> Result<()> {
+        veach::image_io::write_atomically(&args.output.join(name), |f| {
+            use std::io::Write;
+            f.write_all(text.as_bytes()).map_err(|e| e.to_string())
+        })?;
+        Ok(())
+    };
+    write_text("results.csv", &csv(&rows))?;
+    write_text("report.md", &report)?;
+
+    println!("{:<16} {:<12} {:>10} {:>12} {:>8}", "scene", "strategy", "spp", "relMSE", "slope");
+    for b in &summaries {
+        for r in &b.equal_time {
+            let slope = b
+                .curves
+                .iter()
+                .find(|c| c.strategy == r.strategy)
+                .and_then(veach::bench::fit_convergence)
+                .map(|(_, s)| format!("{s:.2}"))
+                .unwrap_or_else(|| "-".into());
+            println!("{:<16} {:<12} {:>10.1} {:>12.3e} {:>8}", b.scene, r.strategy, r.spp, r.metrics.relmse, slope);
+        }
+        for w in slope_warnings(b) {
+            println!("warning: {w}");
+        }
+    }
+    println!("(equal time per scene; relMSE against the reference; slope of log relMSE vs log seconds)");
+    eprintln!("wrote {}", args.output.join("report.md").display());
+    Ok(())
+}
+
+/// Whether `t` seconds make a `Duration` (finite, not negative, not beyond u64 seconds).
+fn seconds(t: f64) -> bool {
+    Duration::try_from_secs_f64(t).is_ok()
+}

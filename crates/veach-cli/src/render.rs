@@ -1,0 +1,355 @@
+//! `veach render`: a glTF scene to an image, headless.
+
+use crate::options::{
+    HeuristicArg, LightSamplingArg, SamplerArg, SelectionArg, StrategyArg, heuristic_of, light_sampling_of, sampler_of,
+    selection_of, strategy_of,
+};
+use anyhow::{Result, bail};
+use clap::ValueEnum;
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+use veach::{Execution, GpuContext, RenderSettings, Renderer, Strategy};
+
+#[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
+enum AovArg {
+    Light,
+    Brdf,
+    Weights,
+}
+
+#[derive(Clone, Copy, ValueEnum)]
+enum ExecutionArg {
+    Auto,
+    Megakernel,
+    Wavefront,
+}
+
+#[derive(clap::Args)]
+#[command(after_long_help = "SAMPLE COUNTS
+  --spp is the number of camera samples per pixel (jittered over the pixel). At each camera
+  sample's first hit, the strategy takes its own samples of the direct-lighting integral:
+    uniform: --brdf-samples uniform hemisphere directions      (default 1024)
+    brdf:    --brdf-samples BRDF samples                       (default 64)
+    light:   --light-samples light samples                     (default 64)
+    mis:     --light-samples light + --brdf-samples BRDF samples, MIS-weighted (default 32 + 32)
+  With --light-selection each, every light gets --light-samples samples; with uniform or power,
+  --light-samples lights are chosen (one per sample). The defaults reproduce the classic
+  comparison of MIS with 32 + 32 samples against uniform sampling with 1024. Each count is at
+  most 1048576 (2^20) per camera sample; more samples than that are more camera samples.
+
+OUTPUT
+  By extension: .exr (linear float RGB), .png (8-bit sRGB after --exposure, clamped), .pfm.
+  EXR and PNG headers record the settings that made the image (veach:* text).
+  The file is written whole or not at all; Ctrl-C stops early and writes what was accumulated.")]
+pub struct RenderArgs {
+    /// glTF scene (.gltf or .glb)
+    scene: PathBuf,
+    /// Output image: .exr, .png or .pfm
+    #[arg(short, long)]
+    output: PathBuf,
+    #[arg(long, default_value_t = 256)]
+    width: u32,
+    #[arg(long, default_value_t = 256)]
+    height: u32,
+    /// Camera samples per pixel [default: 1, or unlimited with --time-limit]
+    #[arg(long)]
+    spp: Option<u32>,
+    #[arg(long, value_enum, default_value_t = StrategyArg::Mis)]
+    strategy: StrategyArg,
+    /// Light samples per camera sample [default: by strategy, see below]
+    #[arg(long)]
+    light_samples: Option<u32>,
+    /// BRDF samples (uniform: hemisphere directions) per camera sample [default: by strategy]
+    #[arg(long)]
+    brdf_samples: Option<u32>,
+    #[arg(long, value_enum, default_value_t = HeuristicArg::Balance)]
+    heuristic: HeuristicArg,
+    #[arg(long, value_enum, default_value_t = SelectionArg::Each)]
+    light_selection: SelectionArg,
+    /// How a light sample picks its point on an emitter triangle, or its direction towards a round light
+    #[arg(long, value_enum, default_value_t = LightSamplingArg::Area)]
+    light_sampling: LightSamplingArg,
+    /// Where the camera samples' random numbers come from
+    #[arg(long, value_enum, default_value_t = SamplerArg::Sobol)]
+    sampler: SamplerArg,
+    /// Leave out emission seen directly by camera rays: reflected light only, as `veach bench`
+    /// measures it
+    #[arg(long)]
+    hide_emitters: bool,
+    /// Add the light a diffuse surface would get with nothing in the way, integrated in closed
+    /// form per emitter triangle, and estimate only the difference with the strategy's samples:
+    /// unbiased, and noiseless wherever a diffuse surface sees a light unblocked (uniform, brdf,
+    /// light, mis; at most 32 emitter triangles of constant radiance; pixels of a shadow may come
+    /// out slightly below zero at low sample counts)
+    #[arg(long)]
+    control_variate: bool,
+    /// Random seed: the same scene, options and seed give the same image on the same adapter
+    #[arg(long, default_value_t = 0)]
+    seed: u32,
+    /// Render until this many seconds of render time are spent
+    #[arg(long, value_name = "SECONDS")]
+    time_limit: Option<f64>,
+    /// Camera to render through, by name [default: the scene's first, or one framing the scene]
+    #[arg(long)]
+    camera: Option<String>,
+    /// Exposure in stops for PNG output
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    exposure: f32,
+    /// Contribution images of the MIS estimate, written next to OUT: `light` and `brdf`
+    /// (OUT.light.EXT, OUT.brdf.EXT: the light-sample and BRDF-sample parts, which add up to
+    /// the image) and `weights` (OUT.weights.png: false colour of the share light samples carry,
+    /// blue = BRDF samples, red = light samples)
+    #[arg(long, value_delimiter = ',', value_name = "light,brdf,weights")]
+    aov: Vec<AovArg>,
+    /// Write render statistics as JSON
+    #[arg(long, value_name = "FILE.json")]
+    stats: Option<PathBuf>,
+    /// Use the adapter whose name contains this text (also VEACH_ADAPTER)
+    #[arg(long)]
+    adapter: Option<String>,
+    /// Print nothing but errors
+    #[arg(short, long)]
+    quiet: bool,
+    /// Use the generic kernel instead of one specialised to the scene's features and strategy
+    #[arg(long)]
+    no_specialise: bool,
+    /// One kernel per camera sample, or light samples in one and the direction samples of the
+    /// points that take some in a second (auto: whichever measured faster on the driver: with Mesa
+    /// 22's lavapipe the wavefront for light and mis-lobes and on textured scenes, else megakernel)
+    #[arg(long, value_enum, default_value_t = ExecutionArg::Auto)]
+    execution: ExecutionArg,
+}
+
+pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
+    let strategy = strategy_of(args.strategy);
+    let (default_light, default_brdf) = strategy.default_sample_counts();
+    let light_samples = args.light_samples.unwrap_or(default_light);
+    let brdf_samples = args.brdf_samples.unwrap_or(default_brdf);
+    if args.width == 0 || args.height == 0 {
+        bail!("--width and --height must be at least 1");
+    }
+    veach::settings::check_image_size(args.width, args.height)?;
+    veach::settings::check_sample_counts(light_samples, brdf_samples)?;
+    let time_limit = match args.time_limit {
+        Some(t) if !(t.is_finite() && t > 0.0) => {
+            bail!("--time-limit must be a positive number of seconds")
+        }
+        Some(t) => {
+            Some(Duration::try_from_secs_f64(t).map_err(|_| anyhow::anyhow!("--time-limit {t}: too many seconds"))?)
+        }
+        None => None,
+    };
+    if !args.exposure.is_finite() {
+        bail!("--exposure must be a finite number of stops");
+    }
+    let spp = match (args.spp, time_limit) {
+        (Some(0), _) => bail!("--spp must be at least 1"),
+        (Some(n), _) => n,
+        (None, Some(_)) => u32::MAX,
+        (None, None) => 1,
+    };
+    match strategy {
+        Strategy::Uniform | Strategy::Brdf if brdf_samples == 0 => {
+            bail!("--brdf-samples must be at least 1 for {}", strategy.name())
+        }
+        Strategy::Light if light_samples == 0 => {
+            bail!("--light-samples must be at least 1 for light")
+        }
+        Strategy::Mis if light_samples + brdf_samples == 0 => {
+            bail!("mis needs --light-samples or --brdf-samples above 0")
+        }
+        Strategy::MisLobes if light_samples == 0 => {
+            bail!("--light-samples must be at least 1 for mis-lobes (the diffuse lobe has no other estimator)")
+        }
+        _ => {}
+    }
+    Ok(RenderSettings {
+        width: args.width,
+        height: args.height,
+        spp,
+        strategy,
+        light_samples,
+        brdf_samples,
+        heuristic: heuristic_of(args.heuristic),
+        light_selection: selection_of(args.light_selection),
+        light_sampling: light_sampling_of(args.light_sampling),
+        sampler: sampler_of(args.sampler),
+        seed: args.seed,
+        time_limit,
+        hide_emitters: args.hide_emitters,
+        write_aovs: !args.aov.is_empty(),
+        control_variate: args.control_variate,
+        specialise: !args.no_specialise,
+        execution: match args.execution {
+            ExecutionArg::Auto => Execution::Auto,
+            ExecutionArg::Megakernel => Execution::Megakernel,
+            ExecutionArg::Wavefront => Execution::Wavefront,
+        },
+        ..Default::default()
+    })
+}
+
+pub fn render(args: RenderArgs) -> Result<()> {
+    let settings = settings_from(&args)?;
+    // Refuse an unknown output type before spending time on the render.
+    veach::image_io::ImageFormat::from_path(&args.output)?;
+    // And an output (or --stats file) that could not be written.
+    veach::image_io::check_writable(&args.output)?;
+    if let Some(path) = &args.stats {
+        veach::image_io::check_writable(path)?;
+    }
+    let say = |msg: String| {
+        if !args.quiet {
+            eprintln!("{msg}");
+        }
+    };
+
+    let load_start = Instant::now();
+    let scene = veach::load_gltf(&args.scene)?;
+    let load_seconds = load_start.elapsed().as_secs_f64();
+    for w in &scene.warnings {
+        say(format!("warning: {}: {w}", args.scene.display()));
+    }
+    let camera = scene.camera(args.camera.as_deref()).map_err(|m| anyhow::anyhow!("{}: {m}", args.scene.display()))?;
+    if scene.lights.is_empty() {
+        say(format!(
+            "warning: {}: the scene has no lights; only emitters seen directly would show",
+            args.scene.display()
+        ));
+    }
+    if !args.aov.is_empty() && !matches!(settings.strategy, Strategy::Mis | Strategy::MisLobes) {
+        say(format!(
+            "note: contribution images split the {} estimate into light-sample and BRDF-sample parts; \
+             they show MIS weighting only with --strategy mis or mis-lobes",
+            settings.strategy.name()
+        ));
+    }
+    if !settings.strategy.samples_lights() && scene.has_delta_lights() {
+        say(format!(
+            "warning: the {} strategy cannot reach point, spot or directional lights (they are deltas); \
+             {} of the scene's lights are left out of this image",
+            settings.strategy.name(),
+            scene.lights.iter().filter(|l| l.is_delta()).count()
+        ));
+    }
+
+    let gpu = GpuContext::new(args.adapter.as_deref())?;
+    say(format!("adapter: {}; driver: {}", gpu.describe(), gpu.driver()));
+    let renderer = Renderer::new(gpu)?;
+    let gpu_scene = renderer.upload_scene(&scene)?;
+    // Before any kernel is built, and naming the scene.
+    veach::control_variate::check(&gpu_scene.features, gpu_scene.emitter_triangles(), &settings)
+        .map_err(|e| anyhow::anyhow!("{}: {e}", args.scene.display()))?;
+    say(format!(
+        "scene features: {}; kernel: {}{}",
+        gpu_scene.features.describe(),
+        match (settings.specialise, gpu_scene.baked_triangles()) {
+            (false, _) => "generic".to_string(),
+            (true, 0) => "specialised".to_string(),
+            (true, n) => format!("specialised, {n} triangles compiled in"),
+        },
+        if veach::features::KernelKey::for_render(&gpu_scene.features, &settings, renderer.gpu.auto_execution())
+            .wavefront
+        {
+            ", wavefront"
+        } else {
+            ""
+        }
+    ));
+
+    let stop = Arc::new(AtomicBool::new(false));
+    {
+        let stop = stop.clone();
+        // Ctrl-C: finish the dispatch in flight, then write what was accumulated.
+        let _ = ctrlc::set_handler(move || {
+            if stop.swap(true, Ordering::SeqCst) {
+                std::process::exit(130);
+            }
+        });
+    }
+    let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(1000) };
+    bar.set_style(
+        ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {percent:>3}% eta {eta} {msg}")
+            .expect("valid template"),
+    );
+    let pixels = settings.width as u64 * settings.height as u64;
+    let out = renderer.render(&gpu_scene, &settings, &camera, &mut |p| {
+        bar.set_position((p.fraction * 1000.0) as u64);
+        bar.set_message(format!("{:.1} spp", p.pixel_samples_done as f64 / pixels as f64));
+        !stop.load(Ordering::SeqCst)
+    })?;
+    bar.finish_and_clear();
+    if out.interrupted {
+        say("interrupted: writing the samples accumulated so far".into());
+    }
+
+    // What made the image, in an EXR or PNG file's header (`veach::image_io::read_metadata`).
+    let made_by = veach::stats::image_metadata(&settings, &camera, &args.scene, &out, &renderer);
+    let mut metadata = made_by.clone();
+    if veach::image_io::ImageFormat::from_path(&args.output)? == veach::image_io::ImageFormat::Png {
+        metadata.push(("veach:exposure".into(), args.exposure.to_string()));
+    }
+    veach::image_io::write_image_with_metadata(
+        &args.output,
+        out.width,
+        out.height,
+        &out.mean(),
+        args.exposure,
+        &metadata,
+    )?;
+    if let Some(images) = out.contribution_images() {
+        let (light, brdf, emitted) = (&images.light, &images.brdf, &images.emitted_luminance);
+        let ext = args.output.extension().and_then(|e| e.to_str()).unwrap_or("exr");
+        let sibling = |name: &str, ext: &str| args.output.with_extension(format!("{name}.{ext}"));
+        let mut written = Vec::new();
+        if args.aov.contains(&AovArg::Light) {
+            let path = sibling("light", ext);
+            veach::image_io::write_image_with_metadata(&path, out.width, out.height, light, args.exposure, &metadata)?;
+            written.push(path);
+        }
+        if args.aov.contains(&AovArg::Brdf) {
+            let path = sibling("brdf", ext);
+            veach::image_io::write_image_with_metadata(&path, out.width, out.height, brdf, args.exposure, &metadata)?;
+            written.push(path);
+        }
+        if args.aov.contains(&AovArg::Weights) {
+            let path = sibling("weights", "png");
+            let colours = veach::image_io::light_share_false_colour(light, brdf, emitted);
+            veach::image_io::write_image_with_metadata(&path, out.width, out.height, &colours, 0.0, &made_by)?;
+            written.push(path);
+        }
+        let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();
+        say(format!("contribution images: {}", names.join(", ")));
+    }
+    let render_s = out.render_time.as_secs_f64();
+    say(format!(
+        "{}: {}x{}, {:.1} spp ({} {}+{}), render {:.3} s, {:.2} Mrays/s{}",
+        args.output.display(),
+        out.width,
+        out.height,
+        out.mean_samples(),
+        settings.strategy.name(),
+        if settings.strategy.samples_lights() { settings.light_samples } else { 0 },
+        if settings.strategy == Strategy::Light { 0 } else { settings.brdf_samples },
+        render_s,
+        if render_s > 0.0 { out.rays as f64 / render_s / 1e6 } else { 0.0 },
+        if out.nonfinite_samples > 0 {
+            format!(", {} samples dropped (not finite, or their square overflows f32)", out.nonfinite_samples)
+        } else {
+            String::new()
+        }
+    ));
+    if let Some(path) = &args.stats {
+        let stats =
+            veach::stats::render_stats(&scene, &renderer, &gpu_scene, &settings, &camera.name, load_seconds, &out);
+        let text = serde_json::to_string_pretty(&stats)?;
+        veach::image_io::write_atomically(path, |f| {
+            use std::io::Write;
+            f.write_all(text.as_bytes()).map_err(|e| e.to_string())
+        })?;
+    }
+    Ok(())
+}

@@ -1,0 +1,78 @@
+//! `veach info`, `veach generate` and `veach export-mitsuba`: a scene looked at, written, exported.
+
+use anyhow::{Context, Result};
+use std::path::Path;
+use veach::RenderSettings;
+
+pub fn info(path: &Path) -> Result<()> {
+    let scene = veach::load_gltf(path)?;
+    let b = scene.bounds();
+    println!("{}", path.display());
+    println!("  triangles: {} ({} emissive)", scene.triangles.len(), scene.emissive_triangle_count());
+    println!("  bounds: {:?} .. {:?}", b.min.to_array(), b.max.to_array());
+    println!("  materials: {}", scene.materials.len());
+    for m in &scene.materials {
+        println!(
+            "    {}: base {:?} metallic {} roughness {} emission {:?}{}",
+            m.name,
+            m.base_color.to_array(),
+            m.metallic,
+            m.roughness,
+            m.emission.to_array(),
+            if m.double_sided { " double-sided" } else { "" }
+        );
+    }
+    println!("  lights: {}", scene.lights.len());
+    for l in &scene.lights {
+        let kind = match &l.kind {
+            veach::scene::LightKind::Area { triangles, .. } => {
+                format!("area, {} triangles", triangles.len())
+            }
+            veach::scene::LightKind::Point { .. } => "point".into(),
+            veach::scene::LightKind::Spot { .. } => "spot".into(),
+            veach::scene::LightKind::Directional { .. } => "directional".into(),
+        };
+        println!("    {} ({kind})", l.name);
+    }
+    if !scene.textures.is_empty() {
+        println!("  textures: {}", scene.textures.len());
+        for t in &scene.textures {
+            let wrap = format!("{:?} x {:?}", t.wrap_s, t.wrap_t);
+            let filter = if t.nearest { "nearest" } else { "bilinear" };
+            println!("    {}: {}x{}, {wrap}, {filter}", t.name, t.width, t.height);
+        }
+    }
+    let features = veach::features::SceneFeatures::detect(&scene);
+    println!("  features: {}", features.describe());
+    // Whether MIS renders of it may take --control-variate (the check `veach render` makes).
+    let controlled = RenderSettings { control_variate: true, ..RenderSettings::mis_power() };
+    let emitters = scene.emissive_triangle_count() as u32;
+    match veach::control_variate::check(&features, emitters, &controlled) {
+        Ok(()) => println!("  control variate: takes --control-variate"),
+        Err(e) => println!("  control variate: no ({e})"),
+    }
+    println!("  cameras: {}", scene.cameras.len());
+    for c in &scene.cameras {
+        println!("    '{}' at {:?}, yfov {:.1}°", c.name, c.position.to_array(), c.yfov.to_degrees());
+    }
+    for w in &scene.warnings {
+        println!("  warning: {w}");
+    }
+    Ok(())
+}
+
+pub fn export_mitsuba(path: &Path, output: &Path, camera: Option<&str>, round_lights_as_spheres: bool) -> Result<()> {
+    let scene = veach::load_gltf(path)?;
+    let camera = scene.camera(camera).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
+    veach::mitsuba::export(&scene, &camera, output, round_lights_as_spheres)
+        .with_context(|| format!("{}", path.display()))?;
+    eprintln!("wrote {}", output.join("scene.xml").display());
+    Ok(())
+}
+
+pub fn generate(name: &str, output: &Path) -> Result<()> {
+    let builder = veach::assets::generate_scene(name).with_context(|| format!("unknown scene '{name}'"))?;
+    builder.write(output)?;
+    eprintln!("wrote {}", output.display());
+    Ok(())
+}
