@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Issue 9's GPU measurement in one short run: rays per second on both shipped scenes, with the
-# light strategy (1 sample: camera + shadow rays) and MIS 1 + 1, at 1920x1080. Prints a table and
+# light strategy (1 sample: camera + shadow rays) and MIS 1 + 1, at 1920x1080, each with the
+# megakernel and with the wavefront kernels (issue 9 asks which wins on a GPU). Prints a table and
 # writes gpu-rays.csv and each render's --stats JSON to $OUT (or target/gpu-rays).
 #
 # Made for a lent GPU machine (the `device` tool, /work/.library/device/README.md), which starts
@@ -28,33 +29,38 @@ out=${OUT:-target/gpu-rays}
 mkdir -p "$out"
 width=${WIDTH:-1920} height=${HEIGHT:-1080} spp=${SPP:-16}
 csv="$out/gpu-rays.csv"
-echo "scene,strategy,width,height,spp,render_s,rays,rays_per_s,shadow_rays_per_s,adapter" >"$csv"
-printf "%-12s %-10s %10s %12s %12s %14s\n" scene strategy render_s rays Grays/s "shadow Grays/s"
+echo "scene,strategy,execution,width,height,spp,render_s,rays,rays_per_s,shadow_rays_per_s,adapter" >"$csv"
+printf "%-12s %-10s %-11s %10s %12s %12s %14s\n" scene strategy execution render_s rays Grays/s "shadow Grays/s"
 for scene in cornell-box veach-mis; do
     for strategy in light mis; do
         case $strategy in
             light) opts=(--strategy light --light-samples 1) ;;
             mis) opts=(--strategy mis --light-samples 1 --brdf-samples 1 --heuristic power) ;;
         esac
-        stats="$out/$scene-$strategy.json"
-        # A first render compiles the kernel; the second is timed.
-        for pass in warm timed; do
-            "$veach" render "assets/$scene.gltf" "${opts[@]}" --light-selection power --hide-emitters \
-                --width $width --height $height --spp "$spp" --seed 1 --stats "$stats" \
-                -o "$out/$scene-$strategy.png" >"$out/$scene-$strategy-$pass.log" 2>&1
-        done
-        python3 - "$stats" "$scene" "$strategy" "$width" "$height" "$spp" "$csv" <<'EOF'
+        for execution in megakernel wavefront; do
+            name="$scene-$strategy-$execution"
+            stats="$out/$name.json"
+            # A first render compiles the kernel; the second is timed.
+            for pass in warm timed; do
+                "$veach" render "assets/$scene.gltf" "${opts[@]}" --execution $execution \
+                    --light-selection power --hide-emitters \
+                    --width $width --height $height --spp "$spp" --seed 1 --stats "$stats" \
+                    -o "$out/$name.png" >"$out/$name-$pass.log" 2>&1
+            done
+            python3 - "$stats" "$scene" "$strategy" "$execution" "$width" "$height" "$spp" "$csv" <<'EOF'
 import json, sys
-stats, scene, strategy, w, h, spp, csv = sys.argv[1:]
+stats, scene, strategy, execution, w, h, spp, csv = sys.argv[1:]
 s = json.load(open(stats))
-seconds = s["timings_seconds"]["render_gpu"]
+# GPU timestamps where the adapter has them, else the wall clock of the dispatches.
+seconds = s["timings_seconds"]["render_gpu"] or s["timings_seconds"]["render"]
 rays = s["rays"]
 camera = int(w) * int(h) * int(spp)
 shadow = (rays - camera) / seconds if strategy == "light" else float("nan")
 adapter = s["adapter"]
-print(f"{scene:<12} {strategy:<10} {seconds:10.4f} {rays:12d} {rays / seconds / 1e9:12.3f} {shadow / 1e9:14.3f}")
+print(f"{scene:<12} {strategy:<10} {execution:<11} {seconds:10.4f} {rays:12d} {rays / seconds / 1e9:12.3f} {shadow / 1e9:14.3f}")
 with open(csv, "a") as f:
-    f.write(f"{scene},{strategy},{w},{h},{spp},{seconds},{rays},{rays / seconds},{shadow},{adapter}\n")
+    f.write(f"{scene},{strategy},{execution},{w},{h},{spp},{seconds},{rays},{rays / seconds},{shadow},{adapter}\n")
 EOF
+        done
     done
 done

@@ -76,6 +76,12 @@ fn renders_exr_png_and_pfm_with_stats() {
         assert!(value("veach:scene").is_some_and(|s| s.ends_with("cornell-box.gltf")), "{meta:?}");
         assert_eq!(value("veach:exposure").is_some(), ext == "png", "{meta:?}");
     }
+    // `veach info` reads them back.
+    let o = veach(&["info", dir.join("cornell.png").to_str().unwrap()]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success() && text.contains("image: 32x24") && text.contains("  light_samples: 2"), "{text}");
+    let o = veach(&["info", dir.join("cornell.pfm").to_str().unwrap()]);
+    assert!(String::from_utf8_lossy(&o.stdout).contains("no veach settings"), "{}", stderr(&o));
 }
 
 #[test]

@@ -38,9 +38,10 @@ enum Command {
     /// Measure how load, BVH build, GPU memory and render time grow with the triangle count,
     /// and render time with the light count (generated scenes; scale.csv and a table).
     Scale(ScaleArgs),
-    /// Print what veach sees in a scene: counts, materials, lights, cameras.
+    /// Print what veach sees in a scene: counts, materials, lights, cameras; or, given an image
+    /// (.exr, .png, .pfm), its size and the settings veach recorded in its header.
     Info {
-        /// glTF scene (.gltf or .glb)
+        /// glTF scene (.gltf or .glb), or an image
         scene: PathBuf,
     },
     /// Write one of the scenes veach generates as .gltf: the ones shipped in assets/, and the

@@ -5,6 +5,9 @@ use std::path::Path;
 use veach::RenderSettings;
 
 pub fn info(path: &Path) -> Result<()> {
+    if veach::image_io::ImageFormat::from_path(path).is_ok() {
+        return image_info(path);
+    }
     let scene = veach::load_gltf(path)?;
     let b = scene.bounds();
     println!("{}", path.display());
@@ -57,6 +60,23 @@ pub fn info(path: &Path) -> Result<()> {
     }
     for w in &scene.warnings {
         println!("  warning: {w}");
+    }
+    Ok(())
+}
+
+/// An image's size and the `veach:*` settings in its header (`veach render` and the viewer write
+/// them into EXR and PNG files): what it takes to render it again.
+fn image_info(path: &Path) -> Result<()> {
+    let (width, height, _) = veach::image_io::read_image(path)?;
+    let metadata = veach::image_io::read_metadata(path)?;
+    println!("{}", path.display());
+    println!("  image: {width}x{height}");
+    let settings: Vec<_> = metadata.iter().filter_map(|(n, v)| Some((n.strip_prefix("veach:")?, v))).collect();
+    if settings.is_empty() {
+        println!("  no veach settings recorded (only EXR and PNG files written by veach carry them)");
+    }
+    for (name, value) in settings {
+        println!("  {name}: {value}");
     }
     Ok(())
 }
