@@ -224,6 +224,23 @@ fn a_field_of_view_outside_the_specification_is_a_warning_naming_the_camera() {
     assert!(scene.cameras[0].yfov < std::f32::consts::PI);
 }
 
+/// Factors outside their specified ranges are clamped, and the clamping is named at load.
+#[test]
+fn material_factors_outside_their_ranges_are_warnings_naming_the_material() {
+    let mut v = triangle_json();
+    v["materials"][0]["pbrMetallicRoughness"]["roughnessFactor"] = json!(1.5);
+    v["materials"][0]["emissiveFactor"] = json!([-1.0, 0.0, 0.0]);
+    v["materials"][0]["extensions"] = json!({ "KHR_materials_emissive_strength": { "emissiveStrength": -2.0 } });
+    v["extensionsUsed"] = json!(["KHR_materials_emissive_strength"]);
+    let scene = veach::load_gltf(&write_json("out-of-range.gltf", &v)).unwrap();
+    let w = scene.warnings.join("\n");
+    assert!(w.contains("material 'grey': roughnessFactor [1.5] is outside its range ([0, 1]); clamped"), "{w}");
+    assert!(w.contains("material 'grey': emissiveFactor [-1.0, 0.0, 0.0]"), "{w}");
+    assert!(w.contains("emissiveStrength [-2.0] is outside its range (at least 0)"), "{w}");
+    assert!(!w.contains("metallicFactor") && !w.contains("baseColorFactor"), "{w}");
+    assert_eq!(scene.materials[0].roughness, 1.0);
+}
+
 /// Material features veach leaves out are named at load, not dropped silently.
 #[test]
 fn transparency_and_unsupported_material_extensions_are_warnings_naming_the_material() {

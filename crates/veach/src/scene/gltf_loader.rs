@@ -78,6 +78,7 @@ fn load_gltf_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
     for m in doc.materials() {
         let material = convert_material(&m, &mut textures)?;
         scene.warnings.extend(ignored_material_features(&m, &material.name));
+        scene.warnings.extend(factors_outside_their_range(&m, &material.name));
         if let Some(w) = beyond_f32_sums(&format!("material '{}': emission", material.name), material.emission) {
             scene.warnings.push(w);
         }
@@ -269,6 +270,37 @@ fn ignored_material_features(m: &gltf::Material, name: &str) -> Vec<String> {
         warnings.push(format!("material '{name}': {} not supported; ignored", names.join(", ")));
     }
     warnings
+}
+
+/// Material factors outside the ranges the specifications give them, which `convert_material`
+/// clamps into range: glTF 2.0 §5.19 and §5.22 (base colour, metallic, roughness and emissive
+/// factors in [0, 1]); KHR_materials_specular (specular factor in [0, 1], colour factor at least
+/// 0); KHR_materials_emissive_strength (at least 0).
+fn factors_outside_their_range(m: &gltf::Material, name: &str) -> Vec<String> {
+    let pbr = m.pbr_metallic_roughness();
+    let unit = (0.0, 1.0);
+    let at_least_zero = (0.0, f32::INFINITY);
+    let mut factors = vec![
+        ("baseColorFactor", pbr.base_color_factor()[..3].to_vec(), unit),
+        ("metallicFactor", vec![pbr.metallic_factor()], unit),
+        ("roughnessFactor", vec![pbr.roughness_factor()], unit),
+        ("emissiveFactor", m.emissive_factor().to_vec(), unit),
+    ];
+    if let Some(strength) = m.emissive_strength() {
+        factors.push(("emissiveStrength", vec![strength], at_least_zero));
+    }
+    if let Some(specular) = m.specular() {
+        factors.push(("specularFactor", vec![specular.specular_factor()], unit));
+        factors.push(("specularColorFactor", specular.specular_color_factor().to_vec(), at_least_zero));
+    }
+    factors
+        .into_iter()
+        .filter(|(_, values, (low, high))| values.iter().any(|v| !(low..=high).contains(&v)))
+        .map(|(factor, values, (low, high))| {
+            let range = if high.is_finite() { format!("[{low}, {high}]") } else { format!("at least {low}") };
+            format!("material '{name}': {factor} {values:?} is outside its range ({range}); clamped")
+        })
+        .collect()
 }
 
 /// Emission (and punctual lights' intensity) above this warns at load. The kernels accumulate each
