@@ -478,7 +478,7 @@ impl Loader<'_> {
                 let forward = world.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z);
                 let up_raw = world.transform_vector3(Vec3::Y);
                 let right = forward.cross(up_raw).normalize_or(Vec3::X);
-                // glTF 2.0 §5.12: yfov is above 0 and should be below π.
+                // glTF 2.0 §5.14 (camera.perspective): yfov is above 0 and should be below π.
                 let yfov = p.yfov().clamp(1e-4, 3.1);
                 if yfov != p.yfov() {
                     self.scene.warnings.push(format!(
