@@ -8,8 +8,8 @@ use glam::Vec3A;
 use obvhs::BvhBuildParams;
 use std::time::{Duration, Instant};
 
-/// A node of the tree as built. Inner node (count == 0): children at nodes[first] and
-/// nodes[first + 1]. Leaf: triangles [first, first + count) of `Bvh::order`. The kernels read
+/// A node of the tree as built. Inner node (count == 0): children at `nodes[first]` and
+/// `nodes[first + 1]`. Leaf: triangles `[first, first + count)` of `Bvh::order`. The kernels read
 /// it re-encoded, each node with its children's boxes (`gpu::bvh_nodes`).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct BvhNode {
