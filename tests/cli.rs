@@ -84,6 +84,56 @@ fn renders_exr_png_and_pfm_with_stats() {
     assert!(String::from_utf8_lossy(&o.stdout).contains("no veach settings"), "{}", stderr(&o));
 }
 
+/// The bench refuses what it cannot measure: a scene without lights (every image black), and a
+/// reference without light, before spending the sweep's time on them.
+#[test]
+fn the_bench_refuses_scenes_it_cannot_measure() {
+    use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
+    let dir = out_dir();
+    let mut g = GltfBuilder::new();
+    let m = g.material(&MaterialDesc::lambert("grey", glam::Vec3::splat(0.5)));
+    let square = MeshData {
+        positions: vec![
+            glam::Vec3::new(-1.0, -1.0, 0.0),
+            glam::Vec3::new(1.0, -1.0, 0.0),
+            glam::Vec3::new(0.0, 1.0, 0.0),
+        ],
+        normals: None,
+        uvs: None,
+        indices: vec![0, 1, 2],
+    };
+    g.add_mesh("tri", &square, m, glam::Mat4::IDENTITY);
+    let dark = dir.join("dark.gltf");
+    g.write(&dark).unwrap();
+    let bench_out = dir.join("dark-bench");
+    let o = veach(&["bench", dark.to_str().unwrap(), "-o", bench_out.to_str().unwrap(), "--max-spp", "1"]);
+    let e = stderr(&o);
+    assert!(o.status.code() == Some(1) && e.contains("dark.gltf") && e.contains("no lights"), "{e}");
+    assert!(!e.contains("adapter:"), "refused after starting the GPU: {e}");
+
+    // A reference that is black: the same scene's bench against an all-zero image.
+    let black = dir.join("black.pfm");
+    veach::image_io::write_image(&black, 8, 8, &[[0.0; 3]; 64], 0.0).unwrap();
+    let o = veach(&[
+        "bench",
+        &assets("cornell-box.gltf"),
+        "-o",
+        bench_out.to_str().unwrap(),
+        "--width",
+        "8",
+        "--height",
+        "8",
+        "--max-spp",
+        "1",
+        "--seeds",
+        "1",
+        "--reference",
+        black.to_str().unwrap(),
+    ]);
+    let e = stderr(&o);
+    assert!(o.status.code() == Some(1) && e.contains("black.pfm") && e.contains("is black"), "{e}");
+}
+
 #[test]
 fn a_bad_scene_is_a_clear_error_and_leaves_the_old_output_alone() {
     let dir = out_dir();

@@ -108,6 +108,12 @@ pub fn bench(args: BenchArgs) -> Result<()> {
     for path in &args.scenes {
         let scene = veach::load_gltf(path)?;
         let camera = scene.camera(None).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
+        if scene.lights.is_empty() {
+            bail!(
+                "{}: the scene has no lights, so every image is black: nothing to measure error against",
+                path.display()
+            );
+        }
         scenes.push((path, scene, camera));
     }
     let gpu = GpuContext::new(args.adapter.as_deref())?;

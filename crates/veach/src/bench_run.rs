@@ -314,6 +314,15 @@ pub fn bench_scene(
             }
         }
     };
+    // relMSE divides by the reference: a black one (lights that reach nothing the camera sees)
+    // leaves every error undefined.
+    if reference.pixels.iter().flatten().all(|&v| v <= 0.0) {
+        return Err(Error::Options(format!(
+            "{}: the reference ({}) is black: no light reaches what the camera sees, so there is no error to measure",
+            scene_path.display(),
+            reference.source
+        )));
+    }
     done += 1;
 
     // The sweep. Strategies take turns within each budget and seed, so that a slow spell of the
