@@ -132,6 +132,23 @@ fn the_bench_refuses_scenes_it_cannot_measure() {
     ]);
     let e = stderr(&o);
     assert!(o.status.code() == Some(1) && e.contains("black.pfm") && e.contains("is black"), "{e}");
+
+    // A reference with a NaN pixel (as another renderer might write; veach writes none), by hand.
+    let nan = dir.join("nan.pfm");
+    let mut pfm = b"PF\n8 8\n-1.0\n".to_vec();
+    for i in 0..64 * 3 {
+        pfm.extend_from_slice(&(if i == 100 { f32::NAN } else { 0.5f32 }).to_le_bytes());
+    }
+    std::fs::write(&nan, pfm).unwrap();
+    let reference = ["--reference", nan.to_str().unwrap()];
+    let size = ["--width", "8", "--height", "8", "--max-spp", "1", "--seeds", "1"];
+    let o = veach(
+        &[&["bench", &assets("cornell-box.gltf"), "-o", bench_out.to_str().unwrap()][..], &size, &reference].concat(),
+    );
+    let e = stderr(&o);
+    assert!(o.status.code() == Some(1) && e.contains("nan.pfm") && e.contains("1 pixels are NaN"), "{e}");
+    let o = veach(&[&["view", &assets("cornell-box.gltf")][..], &reference].concat());
+    assert!(o.status.code() == Some(1) && stderr(&o).contains("NaN or infinite"), "{}", stderr(&o));
 }
 
 #[test]

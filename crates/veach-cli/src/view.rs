@@ -93,7 +93,7 @@ pub fn view(args: ViewArgs) -> Result<()> {
     let scene = veach::load_gltf(&args.scene)?;
     scene.camera(args.camera.as_deref()).map_err(|m| anyhow::anyhow!("{}: {m}", args.scene.display()))?;
     if let Some(r) = &args.reference {
-        veach::image_io::read_image(r)?;
+        veach::image_io::read_reference(r)?;
     }
     let strategy = strategy_of(args.strategy);
     let (light_default, brdf_default) = veach_viewer::app::interactive_sample_counts(strategy);

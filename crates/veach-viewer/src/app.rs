@@ -298,7 +298,7 @@ impl ViewerApp {
 
     /// Loads a linear EXR/PFM as the reference for the error plot.
     pub fn load_reference(&mut self, path: &Path) -> veach::Result<()> {
-        let (width, height, pixels) = veach::image_io::read_image(path)?;
+        let (width, height, pixels) = veach::image_io::read_reference(path)?;
         self.curves.reference = Some(Reference { width, height, pixels, source: path.display().to_string() });
         self.status = format!("reference: {}", path.display());
         Ok(())

@@ -278,7 +278,7 @@ pub fn bench_scene(
     // Reference: given, cached, or rendered now.
     let reference = match &config.reference {
         Some(path) => {
-            let (rw, rh, pixels) = image_io::read_image(path)?;
+            let (rw, rh, pixels) = image_io::read_reference(path)?;
             if (rw, rh) != (w, h) {
                 return Err(Error::Options(format!(
                     "{}: the reference is {rw}x{rh} but the bench renders {w}x{h}",
@@ -290,7 +290,7 @@ pub fn bench_scene(
         None => {
             let cache = config.out_dir.join(format!("reference-{name}-{w}x{h}-{}spp.pfm", config.reference_spp));
             let meta = cache.with_extension("txt");
-            match (image_io::read_image(&cache), std::fs::read_to_string(&meta)) {
+            match (image_io::read_reference(&cache), std::fs::read_to_string(&meta)) {
                 (Ok((cw, ch, pixels)), Ok(own)) if (cw, ch) == (w, h) => Reference {
                     pixels,
                     source: format!(

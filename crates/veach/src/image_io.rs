@@ -232,6 +232,21 @@ pub fn write_atomically(
     })
 }
 
+/// Reads an image to measure error against (`veach bench --reference`, the viewer's reference):
+/// `read_image`, refusing one with NaN or infinite pixels, against which every error would be
+/// NaN. veach never writes such pixels; another renderer's file may hold them.
+pub fn read_reference(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
+    let (width, height, pixels) = read_image(path)?;
+    let bad = pixels.iter().filter(|p| p.iter().any(|v| !v.is_finite())).count();
+    if bad > 0 {
+        return Err(Error::Output {
+            path: path.to_owned(),
+            message: format!("{bad} pixels are NaN or infinite; a reference needs finite values"),
+        });
+    }
+    Ok((width, height, pixels))
+}
+
 /// Reads a linear RGB image (EXR or PFM as written above, or any format `image` reads).
 pub fn read_image(path: &Path) -> Result<(u32, u32, Vec<[f32; 3]>)> {
     let err = |m: String| Error::Output { path: path.to_owned(), message: m };
