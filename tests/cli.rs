@@ -147,6 +147,26 @@ fn the_bench_refuses_scenes_it_cannot_measure() {
     );
     let e = stderr(&o);
     assert!(o.status.code() == Some(1) && e.contains("nan.pfm") && e.contains("1 pixels are NaN"), "{e}");
+    assert!(!e.contains("adapter:"), "refused after starting the GPU: {e}");
+    // A reference of another size, or one reference for two scenes: refused up front too.
+    let wrong_size = ["--width", "9", "--height", "8", "--reference", black.to_str().unwrap()];
+    let o =
+        veach(&[&["bench", &assets("cornell-box.gltf"), "-o", bench_out.to_str().unwrap()][..], &wrong_size].concat());
+    let e = stderr(&o);
+    assert!(
+        o.status.code() == Some(1) && e.contains("is 8x8 but the bench renders 9x8") && !e.contains("adapter:"),
+        "{e}"
+    );
+    let two = [assets("cornell-box.gltf"), assets("veach-mis.gltf")];
+    let o = veach(
+        &[
+            &["bench", &two[0], &two[1], "-o", bench_out.to_str().unwrap()][..],
+            &size,
+            &["--reference", black.to_str().unwrap()],
+        ]
+        .concat(),
+    );
+    assert!(o.status.code() == Some(1) && stderr(&o).contains("one scene's reference"), "{}", stderr(&o));
     let o = veach(&[&["view", &assets("cornell-box.gltf")][..], &reference].concat());
     assert!(o.status.code() == Some(1) && stderr(&o).contains("NaN or infinite"), "{}", stderr(&o));
 }

@@ -40,7 +40,7 @@ pub struct BenchArgs {
     /// Renders per budget (seeds 1..=N); the report gives the median and spread
     #[arg(long, default_value_t = 3)]
     seeds: u32,
-    /// Reference image (linear .exr or .pfm, same size) instead of rendering one
+    /// Reference image (linear .exr or .pfm, same size) instead of rendering one (one scene only)
     #[arg(long)]
     reference: Option<PathBuf>,
     /// Camera samples per pixel of the rendered reference [default: 16 × --max-spp, at least 256]
@@ -103,7 +103,16 @@ pub fn bench(args: BenchArgs) -> Result<()> {
         equal_time: args.equal_time,
         out_dir: args.output.clone(),
     };
-    // Load every scene first: a bad file fails before any time is spent.
+    // Load every scene, and the reference, first: a bad file fails before any time is spent.
+    if let Some(path) = &args.reference {
+        if args.scenes.len() > 1 {
+            bail!("--reference is one scene's reference; bench one scene with it, or leave it out to render each one");
+        }
+        let (w, h, _) = veach::image_io::read_reference(path)?;
+        if (w, h) != (args.width, args.height) {
+            bail!("{}: the reference is {w}x{h} but the bench renders {}x{}", path.display(), args.width, args.height);
+        }
+    }
     let mut scenes = Vec::new();
     for path in &args.scenes {
         let scene = veach::load_gltf(path)?;
