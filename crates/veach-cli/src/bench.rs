@@ -64,7 +64,7 @@ pub struct BenchArgs {
 
 pub fn bench(args: BenchArgs) -> Result<()> {
     use veach::bench::Budget;
-    use veach::bench_run::{BenchConfig, bench_scene, bench_units, csv, slope_warnings};
+    use veach::bench_run::{BenchConfig, bench_scene, bench_units, csv, read_given_reference, slope_warnings};
     if args.width == 0 || args.height == 0 || args.max_spp == 0 || args.seeds == 0 {
         bail!("--width, --height, --max-spp and --seeds must be at least 1");
     }
@@ -88,7 +88,11 @@ pub fn bench(args: BenchArgs) -> Result<()> {
     if args.strategies.as_deref().is_some_and(|s| s.split(',').all(|n| n.trim().is_empty())) {
         bail!("--strategies names no strategy");
     }
+    if args.reference.is_some() && args.scenes.len() > 1 {
+        bail!("--reference is one scene's reference; bench one scene with it, or leave it out to render each one");
+    }
     std::fs::create_dir_all(&args.output).with_context(|| format!("cannot create {}", args.output.display()))?;
+    // The scenes and the reference are read first: a bad file fails before any time is spent.
     let config = BenchConfig {
         width: args.width,
         height: args.height,
@@ -99,20 +103,13 @@ pub fn bench(args: BenchArgs) -> Result<()> {
             None => veach::bench::default_strategies(),
         },
         reference_spp: args.reference_spp.unwrap_or((16 * args.max_spp).max(256)),
-        reference: args.reference.clone(),
+        reference: match &args.reference {
+            Some(path) => Some(read_given_reference(path, args.width, args.height)?),
+            None => None,
+        },
         equal_time: args.equal_time,
         out_dir: args.output.clone(),
     };
-    // Load every scene, and the reference, first: a bad file fails before any time is spent.
-    if let Some(path) = &args.reference {
-        if args.scenes.len() > 1 {
-            bail!("--reference is one scene's reference; bench one scene with it, or leave it out to render each one");
-        }
-        let (w, h, _) = veach::image_io::read_reference(path)?;
-        if (w, h) != (args.width, args.height) {
-            bail!("{}: the reference is {w}x{h} but the bench renders {}x{}", path.display(), args.width, args.height);
-        }
-    }
     let mut scenes = Vec::new();
     for path in &args.scenes {
         let scene = veach::load_gltf(path)?;

@@ -287,11 +287,7 @@ pub fn render(args: RenderArgs) -> Result<()> {
     }
 
     // What made the image, in an EXR or PNG file's header (`veach::image_io::read_metadata`).
-    let made_by = veach::stats::image_metadata(&settings, &camera, &args.scene, &out, &renderer);
-    let mut metadata = made_by.clone();
-    if veach::image_io::ImageFormat::from_path(&args.output)? == veach::image_io::ImageFormat::Png {
-        metadata.push(("veach:exposure".into(), args.exposure.to_string()));
-    }
+    let metadata = veach::stats::image_metadata(&settings, &camera, &args.scene, &out, &renderer);
     veach::image_io::write_image_with_metadata(
         &args.output,
         out.width,
@@ -318,7 +314,7 @@ pub fn render(args: RenderArgs) -> Result<()> {
         if args.aov.contains(&AovArg::Weights) {
             let path = sibling("weights", "png");
             let colours = veach::image_io::light_share_false_colour(light, brdf, emitted);
-            veach::image_io::write_image_with_metadata(&path, out.width, out.height, &colours, 0.0, &made_by)?;
+            veach::image_io::write_image_with_metadata(&path, out.width, out.height, &colours, 0.0, &metadata)?;
             written.push(path);
         }
         let names: Vec<String> = written.iter().map(|p| p.display().to_string()).collect();

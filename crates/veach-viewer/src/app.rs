@@ -323,10 +323,7 @@ impl ViewerApp {
         let out = self.session.latest().ok_or_else(nothing)?;
         let (settings, camera) = self.current.as_ref().ok_or_else(nothing)?;
         let scene = &self.session.loaded.path;
-        let mut metadata = veach::stats::image_metadata(settings, camera, scene, out, &self.session.renderer);
-        if veach::image_io::ImageFormat::from_path(path)? == veach::image_io::ImageFormat::Png {
-            metadata.push(("veach:exposure".into(), self.controls.exposure.to_string()));
-        }
+        let metadata = veach::stats::image_metadata(settings, camera, scene, out, &self.session.renderer);
         veach::image_io::write_image_with_metadata(
             path,
             out.width,

@@ -138,6 +138,7 @@ pub fn error_metrics(image: &[[f32; 3]], reference: &[[f32; 3]]) -> ErrorMetrics
     ErrorMetrics { rmse: (se / n).sqrt(), relmse: rel / n, mae: ae / n }
 }
 
+#[derive(Clone)]
 pub struct Reference {
     pub pixels: Vec<[f32; 3]>,
     /// How it was made: a file, or "MIS at N spp".

@@ -18,8 +18,8 @@ pub struct BenchConfig {
     pub strategies: Vec<BenchStrategy>,
     /// Camera samples per pixel of a rendered reference.
     pub reference_spp: u32,
-    /// A given reference image (linear EXR/PFM) instead of rendering one.
-    pub reference: Option<PathBuf>,
+    /// A given reference image (`read_given_reference`) instead of rendering one.
+    pub reference: Option<Reference>,
     /// Time of the equal-time comparison; default: mis-balance's median time at its largest budget.
     pub equal_time: Option<f64>,
     pub out_dir: PathBuf,
@@ -259,6 +259,19 @@ pub fn bench_units(config: &BenchConfig) -> u64 {
     (config.strategies.len() * (config.budgets.len() + 1) * config.seeds as usize + 2) as u64
 }
 
+/// A reference image given to the bench (`--reference`): finite pixels (`image_io::read_reference`)
+/// at the bench's size, read once, before anything renders.
+pub fn read_given_reference(path: &Path, width: u32, height: u32) -> Result<Reference> {
+    let (rw, rh, pixels) = image_io::read_reference(path)?;
+    if (rw, rh) != (width, height) {
+        return Err(Error::Options(format!(
+            "{}: the reference is {rw}x{rh} but the bench renders {width}x{height}",
+            path.display()
+        )));
+    }
+    Ok(Reference { pixels, source: path.display().to_string(), own_relmse: 0.0 })
+}
+
 #[allow(clippy::too_many_arguments)]
 pub fn bench_scene(
     renderer: &Renderer,
@@ -277,16 +290,7 @@ pub fn bench_scene(
 
     // Reference: given, cached, or rendered now.
     let reference = match &config.reference {
-        Some(path) => {
-            let (rw, rh, pixels) = image_io::read_reference(path)?;
-            if (rw, rh) != (w, h) {
-                return Err(Error::Options(format!(
-                    "{}: the reference is {rw}x{rh} but the bench renders {w}x{h}",
-                    path.display()
-                )));
-            }
-            Reference { pixels, source: path.display().to_string(), own_relmse: 0.0 }
-        }
+        Some(given) => given.clone(),
         None => {
             let cache = config.out_dir.join(format!("reference-{name}-{w}x{h}-{}spp.pfm", config.reference_spp));
             let meta = cache.with_extension("txt");

@@ -72,6 +72,7 @@ pub fn write_image(path: &Path, width: u32, height: u32, pixels: &[[f32; 3]], ex
 
 /// `write_image`, with `metadata` (name, value) in the file's header: text attributes of an EXR,
 /// iTXt chunks of a PNG (`veach render` records its settings there; PFM has no place for them).
+/// A PNG with metadata also records its `exposure` (`veach:exposure`), which its pixels depend on.
 /// Characters outside Latin-1, which EXR text cannot hold, become '?' in an EXR.
 pub fn write_image_with_metadata(
     path: &Path,
@@ -93,7 +94,11 @@ pub fn write_image_with_metadata(
                 .flatten()
                 .map(|&v| (linear_to_srgb((v * scale).clamp(0.0, 1.0)) * 255.0 + 0.5) as u8)
                 .collect();
-            write_png(file, width, height, &srgb, metadata).map_err(|e| e.to_string())
+            let mut metadata = metadata.to_vec();
+            if !metadata.is_empty() {
+                metadata.push(("veach:exposure".into(), exposure.to_string()));
+            }
+            write_png(file, width, height, &srgb, &metadata).map_err(|e| e.to_string())
         }
         ImageFormat::Pfm => write_pfm(file, width, height, &clean).map_err(|e| e.to_string()),
     })
