@@ -2,7 +2,7 @@
 //! sampling, samplers as clap values, and their library counterparts.
 
 use clap::ValueEnum;
-use veach::{Heuristic, LightSampling, LightSelection, Sampler, Strategy};
+use veach::{Execution, Heuristic, LightSampling, LightSelection, Sampler, Strategy};
 
 #[derive(Clone, Copy, ValueEnum)]
 pub enum StrategyArg {
@@ -57,6 +57,13 @@ pub enum SelectionArg {
     Bsdf,
 }
 
+#[derive(Clone, Copy, ValueEnum)]
+pub enum ExecutionArg {
+    Auto,
+    Megakernel,
+    Wavefront,
+}
+
 pub fn strategy_of(arg: StrategyArg) -> Strategy {
     match arg {
         StrategyArg::Uniform => Strategy::Uniform,
@@ -95,5 +102,13 @@ pub fn selection_of(arg: SelectionArg) -> LightSelection {
         SelectionArg::Uniform => LightSelection::Uniform,
         SelectionArg::Power => LightSelection::Power,
         SelectionArg::Bsdf => LightSelection::Bsdf,
+    }
+}
+
+pub fn execution_of(arg: ExecutionArg) -> Execution {
+    match arg {
+        ExecutionArg::Auto => Execution::Auto,
+        ExecutionArg::Megakernel => Execution::Megakernel,
+        ExecutionArg::Wavefront => Execution::Wavefront,
     }
 }

@@ -1,5 +1,6 @@
 //! `veach scale`: cost against triangle and light count.
 
+use crate::options::{ExecutionArg, execution_of};
 use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
@@ -39,6 +40,9 @@ pub struct ScaleArgs {
     /// Use the adapter whose name contains this text (also VEACH_ADAPTER)
     #[arg(long)]
     adapter: Option<String>,
+    /// The kernels every render runs (as `veach render --execution`)
+    #[arg(long, value_enum, default_value_t = ExecutionArg::Auto)]
+    execution: ExecutionArg,
 }
 
 pub fn scale(args: ScaleArgs) -> Result<()> {
@@ -62,6 +66,7 @@ pub fn scale(args: ScaleArgs) -> Result<()> {
         height: args.height,
         spp: args.spp,
         repeats: args.repeats,
+        execution: execution_of(args.execution),
     };
     let gpu = GpuContext::new(args.adapter.as_deref())?;
     eprintln!("adapter: {}; driver: {}", gpu.describe(), gpu.driver());
@@ -85,8 +90,13 @@ pub fn scale(args: ScaleArgs) -> Result<()> {
         use std::io::Write;
         f.write_all(scale_csv(&rows).as_bytes()).map_err(|e| e.to_string())
     })?;
+    let execution = match args.execution {
+        ExecutionArg::Auto => "",
+        ExecutionArg::Megakernel => ", the megakernel",
+        ExecutionArg::Wavefront => ", the wavefront kernels",
+    };
     println!(
-        "{}x{}, {} spp, MIS 1 + 1 (the light sweep also light sampling, 2 samples), lights by power, median of {} renders\n",
+        "{}x{}, {} spp, MIS 1 + 1 (the light sweep also light sampling, 2 samples), lights by power{execution}, median of {} renders\n",
         config.width, config.height, config.spp, config.repeats
     );
     println!("{}", scale_report(&rows));

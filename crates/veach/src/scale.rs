@@ -24,6 +24,8 @@ pub struct ScaleConfig {
     pub spp: u32,
     /// Renders per point; the median time is reported.
     pub repeats: u32,
+    /// The kernels every render runs.
+    pub execution: crate::settings::Execution,
 }
 
 #[derive(Clone, Debug)]
@@ -62,7 +64,13 @@ impl ScaleRow {
 
 /// The settings every point renders with: `RenderSettings::mis_power` at the configured size.
 pub fn scale_settings(config: &ScaleConfig) -> RenderSettings {
-    RenderSettings { width: config.width, height: config.height, spp: config.spp, ..RenderSettings::mis_power() }
+    RenderSettings {
+        width: config.width,
+        height: config.height,
+        spp: config.spp,
+        execution: config.execution,
+        ..RenderSettings::mis_power()
+    }
 }
 
 /// What each sweep renders: both sweeps MIS 1 + 1 (`scale_settings`); the light sweep also light
