@@ -54,6 +54,10 @@ override CONTROL_VARIATE: bool = true;
 // "Sample loops left out").
 override AT_MOST_ONE_LIGHT_REQUEST: bool = false;
 override AT_MOST_ONE_DIRECTION_SAMPLE: bool = false;
+// Threads per workgroup of the kernels that take a pixel each, in columns and rows
+// (KernelKey::workgroup). Not a specialisation: a size the driver runs fastest.
+override RENDER_WORKGROUP_WIDTH: u32 = 8u;
+override RENDER_WORKGROUP_HEIGHT: u32 = 8u;
 
 const STRATEGY_FROM_FRAME: u32 = 255u;
 

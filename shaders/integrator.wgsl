@@ -731,7 +731,7 @@ fn loop_budget_held() -> bool {
     return i >= 2u;
 }
 
-@compute @workgroup_size(8, 8, 1)
+@compute @workgroup_size(RENDER_WORKGROUP_WIDTH, RENDER_WORKGROUP_HEIGHT, 1)
 fn render(@builtin(global_invocation_id) gid: vec3u) {
     load_frame();
     let px = band_pixel(gid);

@@ -16,7 +16,7 @@
 // The sample stream continues where the light samples left it, so the image is the one
 // `render` makes, sample for sample (tests/specialise.rs).
 
-@compute @workgroup_size(8, 8, 1)
+@compute @workgroup_size(RENDER_WORKGROUP_WIDTH, RENDER_WORKGROUP_HEIGHT, 1)
 fn render_light_pass(@builtin(global_invocation_id) gid: vec3u) {
     load_frame();
     let px = band_pixel(gid);

@@ -437,3 +437,42 @@ fn every_kernel_renders_the_same_image_with_the_control_variate() {
         }
     }
 }
+
+/// The render kernels' workgroup (`GpuContext::render_workgroup`, which `VEACH_WORKGROUP` sets)
+/// only groups pixels into threads: any size renders the same image, bit for bit, with either
+/// execution. 5×3 and 16×4 leave partial workgroups at the image's right edge and below each band
+/// of rows (a 1 ns dispatch target renders the image a few rows at a time).
+#[test]
+fn any_workgroup_size_renders_the_same_image() {
+    for (name, scene) in [("cornell-box", shipped_scene("cornell-box")), ("veach-mis", shipped_scene("veach-mis"))] {
+        let camera = scene.camera(None).unwrap();
+        let gpu_scene = upload(&scene);
+        for execution in [Execution::Megakernel, Execution::Wavefront] {
+            for dispatch_target in [Duration::from_secs(1), Duration::from_nanos(1)] {
+                let settings = RenderSettings {
+                    width: 37,
+                    height: 23,
+                    spp: 2,
+                    strategy: Strategy::Mis,
+                    light_samples: 1,
+                    brdf_samples: 1,
+                    light_selection: LightSelection::Power,
+                    dispatch_target,
+                    seed: 9,
+                    execution,
+                    ..Default::default()
+                };
+                let default = render(&gpu_scene, &settings, &camera);
+                for workgroup in [(5, 3), (16, 4)] {
+                    let gpu = veach::GpuContext { workgroup_override: Some(workgroup), ..renderer().gpu.clone() };
+                    let other = veach::Renderer::new(gpu).unwrap();
+                    let out = other.render(&gpu_scene, &settings, &camera, &mut |_| true).unwrap();
+                    let what = format!("{name} {execution:?} {workgroup:?} target {dispatch_target:?}");
+                    assert_eq!(out.sum, default.sum, "{what}: images differ");
+                    assert_eq!(out.rays, default.rays, "{what}: ray counts differ");
+                    assert!(default.rays > 0, "{what}: no rays");
+                }
+            }
+        }
+    }
+}

@@ -1,8 +1,8 @@
 //! `veach render`: a glTF scene to an image, headless.
 
 use crate::options::{
-    HeuristicArg, LightSamplingArg, SamplerArg, SelectionArg, StrategyArg, heuristic_of, light_sampling_of, sampler_of,
-    selection_of, strategy_of,
+    ExecutionArg, HeuristicArg, LightSamplingArg, SamplerArg, SelectionArg, StrategyArg, execution_of, heuristic_of,
+    light_sampling_of, sampler_of, selection_of, strategy_of,
 };
 use anyhow::{Result, bail};
 use clap::ValueEnum;
@@ -11,20 +11,13 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
-use veach::{Execution, GpuContext, RenderSettings, Renderer, Strategy};
+use veach::{GpuContext, RenderSettings, Renderer, Strategy};
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
 enum AovArg {
     Light,
     Brdf,
     Weights,
-}
-
-#[derive(Clone, Copy, ValueEnum)]
-enum ExecutionArg {
-    Auto,
-    Megakernel,
-    Wavefront,
 }
 
 #[derive(clap::Args)]
@@ -118,7 +111,8 @@ pub struct RenderArgs {
     no_specialise: bool,
     /// One kernel per camera sample, or light samples in one and the direction samples of the
     /// points that take some in a second (auto: whichever measured faster on the driver: with Mesa
-    /// 22's lavapipe the wavefront for light and mis-lobes and on textured scenes, else megakernel)
+    /// 22's lavapipe the wavefront for light and mis-lobes and on textured scenes, with NVIDIA's
+    /// the wavefront for mis, else megakernel)
     #[arg(long, value_enum, default_value_t = ExecutionArg::Auto)]
     execution: ExecutionArg,
 }
@@ -183,11 +177,7 @@ pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
         write_aovs: !args.aov.is_empty(),
         control_variate: args.control_variate,
         specialise: !args.no_specialise,
-        execution: match args.execution {
-            ExecutionArg::Auto => Execution::Auto,
-            ExecutionArg::Megakernel => Execution::Megakernel,
-            ExecutionArg::Wavefront => Execution::Wavefront,
-        },
+        execution: execution_of(args.execution),
         ..Default::default()
     })
 }

@@ -6,7 +6,7 @@ use crate::error::{Error, Result};
 use crate::features::{AutoExecution, KernelKey};
 use crate::gpu::bindings;
 use crate::gpu::context::GpuContext;
-use crate::gpu::layout::{DEFERRED_WORKGROUP, DeferredSample, FrameParams, PixelCounters, WORKGROUP_SIZE};
+use crate::gpu::layout::{DEFERRED_WORKGROUP, DeferredSample, FrameParams, PixelCounters};
 use crate::output::{Contributions, RenderOutput};
 use crate::render::{GpuScene, GpuTimer, Kernel, Renderer, read_buffer};
 use crate::scene::Camera;
@@ -155,10 +155,6 @@ impl Accumulation {
             )));
         }
         crate::control_variate::check(&scene.features, scene.emitter_triangles, settings)?;
-        let max_dim = device.limits().max_compute_workgroups_per_dimension;
-        if w.div_ceil(WORKGROUP_SIZE.0) > max_dim {
-            return Err(Error::Options(format!("width {w} exceeds this adapter's dispatch limit")));
-        }
         let zeroed = |label: &str, bytes: u64| {
             device.create_buffer(&wgpu::BufferDescriptor {
                 label: Some(label),
@@ -184,6 +180,10 @@ impl Accumulation {
         let mut key = KernelKey::for_render(&scene.features, settings, gpu.auto_execution());
         // Every kernel, generic or not, takes the stack its scene's BVH needs.
         key.bvh_stack = scene.bvh_stack();
+        key.workgroup = gpu.render_workgroup(key.wavefront);
+        if w.div_ceil(key.workgroup.0) > device.limits().max_compute_workgroups_per_dimension {
+            return Err(Error::Options(format!("width {w} exceeds this adapter's dispatch limit")));
+        }
         if settings.specialise {
             // The scene's small arrays are also uniform buffers where that pays (`upload_scene`).
             key.uniform = scene.uniform;
@@ -194,7 +194,7 @@ impl Accumulation {
             // megakernel where the driver branches around the list its camera pass leaves out
             // (Mesa 22.3 would run both; docs/performance.md, "Camera rays by edge planes").
             let at_eye = scene.baked.as_ref().is_some_and(|b| b.has_camera_eye(camera.position));
-            key.camera_list = at_eye && (key.wavefront || gpu.auto_execution() == AutoExecution::Megakernel);
+            key.camera_list = at_eye && (key.wavefront || gpu.auto_execution() != AutoExecution::WavefrontWhereMasked);
         }
         // The deferred samples of one dispatch: a band of rows, each pixel once, within the
         // binding size and the direction kernel's one-dimensional indirect dispatch.
@@ -298,7 +298,7 @@ impl Accumulation {
         }
         let (w, h) = (self.settings.width, self.settings.height);
         let pixels = w as u64 * h as u64;
-        let mut max_rows = self.gpu.device.limits().max_compute_workgroups_per_dimension * WORKGROUP_SIZE.1;
+        let mut max_rows = self.gpu.device.limits().max_compute_workgroups_per_dimension * self.key.workgroup.1;
         if let Some(q) = &self.wavefront {
             max_rows = max_rows.min((q.capacity / w as u64) as u32);
         }
@@ -376,8 +376,8 @@ impl Accumulation {
             });
             pass.set_pipeline(&self.kernel.pipeline);
             pass.set_bind_group(0, &self.bind_group, &[]);
-            let groups_y = rows.div_ceil(WORKGROUP_SIZE.1).max(1);
-            let groups_x = self.settings.width.div_ceil(WORKGROUP_SIZE.0);
+            let groups_y = rows.div_ceil(self.key.workgroup.1).max(1);
+            let groups_x = self.settings.width.div_ceil(self.key.workgroup.0);
             match (&self.kernel.wavefront, &self.wavefront) {
                 (Some((prepare, direction)), Some(q)) => {
                     // One round of the three kernels per camera sample (shaders/wavefront.wgsl).

@@ -206,6 +206,10 @@ pub struct KernelKey {
     /// Entries of the BVH traversal's stack: `gpu::bvh_nodes::BVH_STACK_SIZE`, more for deeper
     /// trees (`GpuScene::bvh_stack`). Not a specialisation: every kernel takes its scene's.
     pub bvh_stack: u32,
+    /// Threads per workgroup of `render` and `render_light_pass`, as (columns, rows)
+    /// (`GpuContext::render_workgroup`, which depends on `wavefront`). Not a specialisation
+    /// either.
+    pub workgroup: (u32, u32),
 }
 
 impl KernelKey {
@@ -235,6 +239,7 @@ impl KernelKey {
             at_most_one_light_request: false,
             at_most_one_direction_sample: false,
             bvh_stack: crate::gpu::bvh_nodes::BVH_STACK_SIZE,
+            workgroup: crate::gpu::layout::WORKGROUP_SIZE,
         }
     }
 
@@ -286,6 +291,7 @@ impl KernelKey {
             at_most_one_light_request,
             at_most_one_direction_sample,
             bvh_stack: crate::gpu::bvh_nodes::BVH_STACK_SIZE,
+            workgroup: crate::gpu::layout::WORKGROUP_SIZE,
         }
     }
 
@@ -319,6 +325,8 @@ impl KernelKey {
             ("CONTROL_VARIATE", flag(self.control_variate)),
             ("AT_MOST_ONE_LIGHT_REQUEST", flag(self.at_most_one_light_request)),
             ("AT_MOST_ONE_DIRECTION_SAMPLE", flag(self.at_most_one_direction_sample)),
+            ("RENDER_WORKGROUP_WIDTH", self.workgroup.0 as f64),
+            ("RENDER_WORKGROUP_HEIGHT", self.workgroup.1 as f64),
         ];
         // These exist only in textures.wgsl.
         if self.textures {
@@ -375,8 +383,14 @@ pub enum AutoExecution {
     /// (0.75-0.88x). Where every point takes direction samples and there are no textures
     /// (uniform, brdf, mis) the queue costs more than it saves: 1.02-1.46x.
     WavefrontWhereMasked,
+    /// NVIDIA's driver (an H200, driver 580; docs/performance.md, "On a GPU"): the wavefront for
+    /// MIS (0.52-0.92x the time on the three shipped scenes, each execution with its best
+    /// workgroup; a likely cause, not profiled: the megakernel traces the BRDF sample on part of
+    /// a warp while the rest wait), the megakernel for the other strategies, where the
+    /// wavefront's rounds cost more (1.04-1.95x).
+    WavefrontForMis,
     /// Every other driver: the megakernel. Measured on Mesa 25's lavapipe, where the wavefront
-    /// took 1.01-1.38x the time in 11 of 12 cases (0.96x in one); GPUs not measured.
+    /// took 1.01-1.38x the time in 11 of 12 cases (0.96x in one).
     Megakernel,
 }
 
@@ -389,6 +403,8 @@ impl AutoExecution {
     pub fn for_driver(driver: &str, driver_info: &str) -> AutoExecution {
         if runs_branches_masked(driver, driver_info) {
             AutoExecution::WavefrontWhereMasked
+        } else if driver == "NVIDIA" {
+            AutoExecution::WavefrontForMis
         } else {
             AutoExecution::Megakernel
         }
@@ -414,6 +430,9 @@ pub fn uses_wavefront(features: &SceneFeatures, settings: &RenderSettings, auto:
         Execution::Megakernel => false,
         Execution::Wavefront => true,
         Execution::Auto if auto == AutoExecution::Megakernel => false,
+        Execution::Auto if auto == AutoExecution::WavefrontForMis => {
+            effective_strategy(features, settings).0 == Strategy::Mis
+        }
         Execution::Auto => match effective_strategy(features, settings).0 {
             Strategy::Light | Strategy::MisLobes => true,
             Strategy::Uniform | Strategy::Brdf | Strategy::Mis => features.textures(),
@@ -465,7 +484,7 @@ mod tests {
             AutoExecution::for_driver("llvmpipe", "Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6)"),
             AutoExecution::Megakernel
         );
-        assert_eq!(AutoExecution::for_driver("NVIDIA", "570.86.15"), AutoExecution::Megakernel);
+        assert_eq!(AutoExecution::for_driver("NVIDIA", "580.159.04"), AutoExecution::WavefrontForMis);
         assert_eq!(AutoExecution::for_driver("llvmpipe", ""), AutoExecution::Megakernel);
     }
 }

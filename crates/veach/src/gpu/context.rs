@@ -10,6 +10,9 @@ pub struct GpuContext {
     pub adapter_info: wgpu::AdapterInfo,
     /// Timestamp queries are available (used for timing renders without host overhead).
     pub has_timestamps: bool,
+    /// `VEACH_WORKGROUP`: the workgroup of the kernels that take a pixel each, as (columns,
+    /// rows), in place of `render_workgroup`'s choice.
+    pub workgroup_override: Option<(u32, u32)>,
 }
 
 fn preference(info: &wgpu::AdapterInfo) -> u32 {
@@ -75,7 +78,11 @@ impl GpuContext {
             )));
         }
         let has_timestamps = device.features().contains(wgpu::Features::TIMESTAMP_QUERY);
-        Ok(GpuContext { device, queue, adapter_info: info, has_timestamps })
+        let workgroup_override = match std::env::var("VEACH_WORKGROUP") {
+            Ok(text) => Some(parse_workgroup(&text, &device.limits())?),
+            Err(_) => None,
+        };
+        Ok(GpuContext { device, queue, adapter_info: info, has_timestamps, workgroup_override })
     }
 
     /// Adapters in veach's order of preference (a discrete GPU first, a software one last),
@@ -104,6 +111,22 @@ impl GpuContext {
         self.adapter_info.device_type == wgpu::DeviceType::Cpu
     }
 
+    /// Threads per workgroup of the kernels that take a pixel each (`render`, and
+    /// `render_light_pass` where `wavefront`), as (columns, rows): what measured fastest on the
+    /// driver. NVIDIA's (an H200, driver 580; docs/performance.md, "On a GPU"): 16×16 for the
+    /// megakernel (0.92-0.98x 8×8's time), 32×8 for the wavefront (0.87-0.93x). Elsewhere 8×8;
+    /// lavapipe runs 16×16 no faster. `VEACH_WORKGROUP` overrides both.
+    pub fn render_workgroup(&self, wavefront: bool) -> (u32, u32) {
+        if let Some(size) = self.workgroup_override {
+            return size;
+        }
+        match (self.adapter_info.driver.as_str(), wavefront) {
+            ("NVIDIA", false) => (16, 16),
+            ("NVIDIA", true) => (32, 8),
+            _ => crate::gpu::layout::WORKGROUP_SIZE,
+        }
+    }
+
     /// What `--execution auto` picks on this driver.
     pub fn auto_execution(&self) -> crate::features::AutoExecution {
         crate::features::AutoExecution::for_adapter(&self.adapter_info)
@@ -119,6 +142,41 @@ impl GpuContext {
             (false, true) => info.driver.clone(),
             (true, false) => info.driver_info.clone(),
             (true, true) => "driver unknown".to_string(),
+        }
+    }
+}
+
+/// `VEACH_WORKGROUP`, "COLUMNSxROWS" (e.g. "16x8"): the render kernels' workgroup, for measuring
+/// which size a GPU runs fastest (scripts/gpu-rays.sh), checked against the device's limits.
+fn parse_workgroup(text: &str, limits: &wgpu::Limits) -> Result<(u32, u32)> {
+    let bad = |why: String| Error::Options(format!("VEACH_WORKGROUP={text:?}: {why}"));
+    let (w, h) = text.split_once('x').ok_or_else(|| bad("expected COLUMNSxROWS, e.g. 16x8".into()))?;
+    let parse = |s: &str| s.trim().parse::<u32>().ok().filter(|&n| n > 0);
+    let (w, h) = parse(w).zip(parse(h)).ok_or_else(|| bad("expected two positive whole numbers".into()))?;
+    if w > limits.max_compute_workgroup_size_x
+        || h > limits.max_compute_workgroup_size_y
+        || w * h > limits.max_compute_invocations_per_workgroup
+    {
+        return Err(bad(format!(
+            "this device allows at most {}x{} and {} threads per workgroup",
+            limits.max_compute_workgroup_size_x,
+            limits.max_compute_workgroup_size_y,
+            limits.max_compute_invocations_per_workgroup
+        )));
+    }
+    Ok((w, h))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::parse_workgroup;
+
+    #[test]
+    fn workgroup_sizes_are_parsed_and_held_to_the_limits() {
+        let limits = wgpu::Limits::default();
+        assert_eq!(parse_workgroup("16x8", &limits).unwrap(), (16, 8));
+        for bad in ["16", "0x8", "ax8", "32x32", "512x1"] {
+            assert!(parse_workgroup(bad, &limits).is_err(), "{bad} was accepted");
         }
     }
 }

@@ -32,7 +32,8 @@ pub const LIGHT_DIRECTIONAL: u32 = 3;
 pub const NO_LIGHT: u32 = u32::MAX;
 pub const NO_TEXTURE: u32 = u32::MAX;
 
-/// Threads per workgroup of the `render` entry point (`@workgroup_size(8, 8, 1)`).
+/// Threads per workgroup of the `render` and `render_light_pass` entry points by default
+/// (shaders/features.wgsl's RENDER_WORKGROUP_*; `GpuContext::render_workgroup`).
 pub const WORKGROUP_SIZE: (u32, u32) = (8, 8);
 /// Threads per workgroup of `render_direction_pass` (shaders/wavefront.wgsl's DEFERRED_WORKGROUP).
 pub const DEFERRED_WORKGROUP: u32 = 64;
