@@ -196,9 +196,13 @@ fn write_pfm(out: &mut BufWriter<std::fs::File>, width: u32, height: u32, pixels
     Ok(())
 }
 
+/// A temporary name next to `path`, unique to this call: by process and by a count within it, so
+/// that two threads writing the same file (tests that share a scene) do not rename each other's.
 fn temp_path(path: &Path) -> PathBuf {
+    static WRITES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
+    let n = WRITES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    path.with_file_name(format!(".{name}.tmp-{}", std::process::id()))
+    path.with_file_name(format!(".{name}.tmp-{}-{n}", std::process::id()))
 }
 
 /// Checks, before a render spends its time, that `write_atomically` will be able to create its
@@ -308,6 +312,34 @@ fn read_pfm(path: &Path) -> std::result::Result<(u32, u32, Vec<[f32; 3]>), Strin
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Threads that write the same file at once (test binaries that share a scene, run with many
+    /// threads) each finish, and the file is one writer's whole text. With one temporary name per
+    /// process, a writer's rename found its file already moved by another (seen on 16 cores).
+    #[test]
+    fn writers_of_the_same_file_at_once_all_succeed() {
+        let dir = std::env::temp_dir().join(format!("veach-io-race-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("shared.txt");
+        let texts: Vec<String> = (0..16).map(|i| format!("writer {i} ").repeat(10_000)).collect();
+        std::thread::scope(|s| {
+            for text in &texts {
+                let path = &path;
+                s.spawn(move || {
+                    write_atomically(path, |f| {
+                        use std::io::Write;
+                        f.write_all(text.as_bytes()).map_err(|e| e.to_string())
+                    })
+                    .unwrap()
+                });
+            }
+        });
+        let back = std::fs::read_to_string(&path).unwrap();
+        assert!(texts.contains(&back), "the file is no one writer's whole text");
+        let left: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+        assert_eq!(left.len(), 1, "temporary files left behind: {left:?}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn float_formats_round_trip_and_png_is_srgb() {
