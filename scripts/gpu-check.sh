@@ -2,9 +2,10 @@
 # Issue 9's GPU checks in one call of the `device` tool (/work/.library/device/README.md): the
 # adapter, two small renders to compare with lavapipe's (the same samples: the images should
 # agree to rounding), rays per second (scripts/gpu-rays.sh: megakernel and wavefront, then
-# other workgroup sizes), and `veach scale` at 1080p (the light sweep also with the wavefront). Each step has a time limit, so that one
-# that hangs leaves the others their time. Everything lands in $OUT: gpu-check.log, the CSVs,
-# the two small renders and gpu-check.tar.gz (every render's --stats JSON and log).
+# other workgroup sizes), and `veach scale` at 1080p (the light sweep also with the wavefront).
+# Each step has a time limit, so that one that hangs leaves the others their time. Everything
+# lands in $OUT: gpu-check.log, the CSVs, the two small renders and gpu-check.tar.gz (every
+# render's --stats JSON and log). The test suite on the GPU is scripts/gpu-tests.sh.
 #
 # The device machine starts bare. Here, once:
 #   cargo build --release -p veach-cli
@@ -13,6 +14,8 @@
 #   mkdir -p .gl /tmp/amd64/partial; o='-oAPT::Architecture=amd64 -oAPT::Architectures=amd64 -oDir::State::Lists=/tmp/amd64'
 #   apt-get $o update; (cd .gl && apt-get $o download libvulkan1 libglvnd0 libglx0 libgl1 libegl1 libopengl0 libgles2)
 # then: run(command="scripts/gpu-check.sh", carry=[".gpu", ".gl"], timeout_s=480)
+# (.gpu with the binary alone: with gpu-tests.sh's binaries beside it, it passes the 64 MB limit).
+# On an H200 the call took 3.5 min (renders, scale and all), and starting the machine 0.5-3 min.
 # Compare the small renders here with scripts/gpu-compare.py. On lavapipe, a quick try of the script:
 #   VEACH=target/release/veach WIDTH=160 HEIGHT=90 SPP=2 REPEATS=1 GPU_WORKGROUPS=8x8 \
 #   SCALE_OPTS="--triangles 1000 --lights 1,10 --repeats 1" scripts/gpu-check.sh
