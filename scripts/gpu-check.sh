@@ -25,15 +25,8 @@ out=${OUT:-target/gpu-check}
 work=/tmp/gpu-check
 rm -rf "$work" && mkdir -p "$out" "$work"
 exec > >(tee "$out/gpu-check.log") 2>&1
-# The Vulkan loader, and libglvnd, which NVIDIA's Vulkan driver (libGLX_nvidia.so.0) links.
-if [ -d .gl ] && ! ldconfig -p | grep -q libGLdispatch.so.0; then
-    for f in .gl/*.deb; do dpkg -x "$f" /; done
-    ldconfig
-fi
-nvidia_icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
-if [ -z "${VK_DRIVER_FILES:-}" ] && [ -e "$nvidia_icd" ]; then export VK_DRIVER_FILES=$nvidia_icd; fi
-veach=${VEACH:-.gpu/veach}
-[ -x "$veach" ] || veach=target/release/veach
+# shellcheck source=scripts/gpu-env.sh
+. scripts/gpu-env.sh
 export VEACH=$veach
 step() { echo; echo "== $1 ($(date +%T))"; }
 

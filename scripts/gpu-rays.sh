@@ -21,15 +21,8 @@
 # sample; a camera ray that misses the scene traces no shadow ray, so this under-counts none).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-# The Vulkan loader, and libglvnd, which NVIDIA's Vulkan driver (libGLX_nvidia.so.0) links.
-if [ -d .gl ] && ! ldconfig -p | grep -q libGLdispatch.so.0; then
-    for f in .gl/*.deb; do dpkg -x "$f" /; done
-    ldconfig
-fi
-nvidia_icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
-if [ -z "${VK_DRIVER_FILES:-}" ] && [ -e "$nvidia_icd" ]; then export VK_DRIVER_FILES=$nvidia_icd; fi
-veach=${VEACH:-.gpu/veach}
-[ -x "$veach" ] || veach=target/release/veach
+# shellcheck source=scripts/gpu-env.sh
+. scripts/gpu-env.sh
 out=${OUT:-target/gpu-rays}
 mkdir -p "$out"
 width=${WIDTH:-1920} height=${HEIGHT:-1080} spp=${SPP:-64} repeats=${REPEATS:-3}

@@ -20,12 +20,8 @@ set -uo pipefail
 cd "$(dirname "$0")/.."
 out=${OUT:-target/gpu-tests}
 mkdir -p "$out"
-if [ -d .gl ] && ! ldconfig -p | grep -q libGLdispatch.so.0; then
-    for f in .gl/*.deb; do dpkg -x "$f" /; done
-    ldconfig
-fi
-nvidia_icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
-if [ -z "${VK_DRIVER_FILES:-}" ] && [ -e "$nvidia_icd" ]; then export VK_DRIVER_FILES=$nvidia_icd; fi
+# shellcheck source=scripts/gpu-env.sh
+. scripts/gpu-env.sh
 built=${BUILT_AT:-/work/main}
 if [ "$(realpath "$built" 2>/dev/null)" != "$(pwd -P)" ]; then
     mkdir -p "$(dirname "$built")" && ln -sfn "$(pwd -P)" "$built"

@@ -403,13 +403,17 @@ impl AutoExecution {
     pub fn for_driver(driver: &str, driver_info: &str) -> AutoExecution {
         if runs_branches_masked(driver, driver_info) {
             AutoExecution::WavefrontWhereMasked
-        } else if driver == "NVIDIA" {
+        } else if driver == NVIDIA_DRIVER {
             AutoExecution::WavefrontForMis
         } else {
             AutoExecution::Megakernel
         }
     }
 }
+
+/// wgpu's `AdapterInfo::driver` for NVIDIA's own driver, which `AutoExecution` and
+/// `GpuContext::render_workgroup` choose for (measured on an H200).
+pub const NVIDIA_DRIVER: &str = "NVIDIA";
 
 /// Whether the driver runs both sides of every branch under a SIMD mask, whether or not any lane
 /// takes it: lavapipe from Mesa 22 and older (wgpu's `AdapterInfo::driver` and `driver_info`).

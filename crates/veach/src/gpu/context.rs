@@ -120,10 +120,10 @@ impl GpuContext {
         if let Some(size) = self.workgroup_override {
             return size;
         }
-        match (self.adapter_info.driver.as_str(), wavefront) {
-            ("NVIDIA", false) => (16, 16),
-            ("NVIDIA", true) => (32, 8),
-            _ => crate::gpu::layout::WORKGROUP_SIZE,
+        match (self.adapter_info.driver == crate::features::NVIDIA_DRIVER, wavefront) {
+            (true, false) => (16, 16),
+            (true, true) => (32, 8),
+            (false, _) => crate::gpu::layout::WORKGROUP_SIZE,
         }
     }
 

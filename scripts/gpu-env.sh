@@ -1,0 +1,12 @@
+# Sourced by the scripts that run on a lent GPU machine (gpu-check.sh, gpu-rays.sh, gpu-tests.sh):
+# the carried Vulkan loader and libglvnd, which NVIDIA's Vulkan driver (libGLX_nvidia.so.0) links,
+# unpacked from .gl once per machine; NVIDIA's ICD named where the loader does not look; and
+# $veach, the carried binary or else this checkout's build.
+if [ -d .gl ] && ! ldconfig -p | grep -q libGLdispatch.so.0; then
+    for f in .gl/*.deb; do dpkg -x "$f" /; done
+    ldconfig
+fi
+nvidia_icd=/usr/local/nvidia/share/vulkan/icd.d/nvidia_icd.json
+if [ -z "${VK_DRIVER_FILES:-}" ] && [ -e "$nvidia_icd" ]; then export VK_DRIVER_FILES=$nvidia_icd; fi
+veach=${VEACH:-.gpu/veach}
+[ -x "$veach" ] || veach=target/release/veach
