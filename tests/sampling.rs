@@ -227,7 +227,8 @@ fn run_direction_case(case: &DirectionCase, alpha: f64) -> Result<(), String> {
     let params = TestParams { count: SAMPLES, ..case.params };
     let out = k.run(case.scene, &case.frame, &params, &[], 2).unwrap();
     let mut observed = vec![0.0f64; BINS_THETA * BINS_PHI];
-    let (mut valid, mut mismatched) = (0u64, 0u64);
+    let (mut valid, mut mismatched, mut missed) = (0u64, 0u64, 0u64);
+    let mut examples = Vec::new();
     let close = |a: f32, b: f32| (a - b).abs() <= 1e-3 * a.max(b);
     // A sampler that is uniform in each triangle's solid angle returns one pdf per triangle. A
     // direction sampled within rounding of the edge two triangles share can hit the other one;
@@ -250,6 +251,11 @@ fn run_direction_case(case: &DirectionCase, alpha: f64) -> Result<(), String> {
         let neighbour = piecewise_constant && piecewise.iter().any(|&v| close(v, pdf_eval));
         if !pdf.is_finite() || pdf <= 0.0 || (!close(pdf, pdf_eval) && !neighbour) {
             mismatched += 1;
+            // A ray that misses the light returns pdf 0: the direction left the light by rounding.
+            missed += u64::from(pdf_eval == 0.0);
+            if examples.len() < 3 {
+                examples.push(format!("({x:.6}, {y:.6}, {z:.6}) pdf {pdf:e}, pdf function {pdf_eval:e}"));
+            }
         }
         observed[case.bins.bin(DVec3::new(x as f64, y as f64, z as f64).normalize())] += 1.0;
     }
@@ -286,7 +292,10 @@ fn run_direction_case(case: &DirectionCase, alpha: f64) -> Result<(), String> {
     let mut problems = Vec::new();
     // Rays aimed at a sampled point within rounding of a triangle's edge may miss it.
     if mismatched > 10 {
-        problems.push(format!("{mismatched} samples whose returned pdf differs from the pdf function"));
+        problems.push(format!(
+            "{mismatched} samples whose returned pdf differs from the pdf function ({missed} of them miss the light), e.g. {}",
+            examples.join(", ")
+        ));
     }
     // Binomial standard error of the valid fraction, plus 2e-3 for the midpoint quadrature.
     let tol = 5.0 * (valid_fraction * (1.0 - valid_fraction) / n).sqrt() + 2e-3;

@@ -187,7 +187,7 @@ fn samples_cut_short_by_a_loop_limit_are_taken_again() {
     };
     let mega = render(&gpu_scene, &s, &camera);
     let wave = render(&gpu_scene, &RenderSettings { execution: veach::Execution::Wavefront, ..s.clone() }, &camera);
-    assert_eq!(mega.sum, wave.sum, "the megakernel's image differs from the wavefront's");
+    assert_same_image("stress-wavefront", "megakernel and wavefront", &mega.sum, &wave.sum, mega.width);
     assert_eq!(mega.truncated_samples > 0, loop_limited(), "{} samples retaken", mega.truncated_samples);
     assert_eq!(wave.truncated_samples, 0);
 }
