@@ -16,7 +16,7 @@
 # with (CARGO_MANIFEST_DIR, CARGO_TARGET_TMPDIR), so the checkout is linked there first. Each
 # binary's output goes to $OUT/NAME.log, and a failed chi-square test's histograms and a failed
 # image test's images (target/tmp/veach-tests) come back as $OUT/failures.tar.gz.
-# On an H200 the five binaries took 208 s, specialise 160 s of it (the driver compiles every kernel).
+# On an H200 five binaries took 139-208 s, specialise 86-160 s of it (the driver compiles every kernel).
 set -uo pipefail
 cd "$(dirname "$0")/.."
 out=${OUT:-target/gpu-tests}

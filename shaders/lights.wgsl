@@ -297,9 +297,9 @@ fn triangle_barycentrics(v: TrianglePositions, e1: vec3f, e2: vec3f, n: vec3f, y
 // Barycentrics (b1, b2) moved at least EDGE_MARGIN inside the triangle. Rounding in Arvo's
 // construction leaves a few directions just outside the spherical triangle; pbrt-v4 §6.5.4
 // (SampleSphericalTriangle) clamps their barycentrics onto it, and the margin keeps a ray aimed at
-// the point from missing the triangle by its own rounding. Measured: on lavapipe 2, on an NVIDIA
-// H200 128 of 2^20 solid-angle samples missed the light without it (tests/sampling.rs).
-// Points already inside by the margin do not move.
+// the point from missing the triangle by its own rounding. Without it, lavapipe had 2 of 2^20
+// solid-angle samples whose ray missed the light, an NVIDIA H200 up to 196 whose pdf the pdf
+// function did not give back (tests/sampling.rs). Points already inside by the margin do not move.
 const EDGE_MARGIN: f32 = 1.0e-5;
 
 fn barycentrics_inside(b: vec2f) -> vec2f {
