@@ -385,9 +385,10 @@ pub enum AutoExecution {
     WavefrontWhereMasked,
     /// NVIDIA's driver (an H200, driver 580; docs/performance.md, "On a GPU"): the wavefront for
     /// MIS (0.52-0.92x the time on the three shipped scenes, each execution with its best
-    /// workgroup; a likely cause, not profiled: the megakernel traces the BRDF sample on part of
-    /// a warp while the rest wait), the megakernel for the other strategies, where the
-    /// wavefront's rounds cost more (1.04-1.95x).
+    /// workgroup: the megakernel traces the BRDF samples on part of a warp while the rest wait,
+    /// 1.9 G rays/s against the wavefront's 3.1 G/s under `veach scale`'s 10,000 lights; "On the
+    /// H200 again"), the megakernel for the other strategies, where the wavefront's rounds cost
+    /// more (1.04-1.95x).
     WavefrontForMis,
     /// Every other driver: the megakernel. Measured on Mesa 25's lavapipe, where the wavefront
     /// took 1.01-1.38x the time in 11 of 12 cases (0.96x in one).
