@@ -513,3 +513,30 @@ fn any_workgroup_size_renders_the_same_image() {
         }
     }
 }
+
+/// The rule `assert_same_image` applies where a GPU's kernels round differently, on made-up
+/// images: differences of f32 rounding pass, a sample's worth in 1% of the pixels passes, more
+/// does not, nor does a single non-finite value.
+#[test]
+fn image_agreement_allows_rounding_and_one_percent_of_pixels() {
+    let base: Vec<[f32; 4]> = (0..384).map(|i| [0.1 + i as f32 * 1e-3, 0.5, 2.0, 3.0]).collect();
+    let with = |changes: &[(usize, [f32; 4])]| {
+        let mut img = base.clone();
+        for &(i, p) in changes {
+            img[i] = p;
+        }
+        ImageAgreement::of(&base, &img)
+    };
+    let same = with(&[]);
+    assert!(same.differ == 0 && same.within_rounding());
+    // A few ulps in every channel of many pixels.
+    let rounded: Vec<(usize, [f32; 4])> = (0..200).map(|i| (i, base[i].map(|v| v * (1.0 + 3e-7)))).collect();
+    let r = with(&rounded);
+    assert!(r.differ > 100 && r.far == 0 && r.within_rounding(), "{r:?}");
+    // A sample's worth (or one sample more) in 3 of 384 pixels: allowed; in 4: not.
+    let moved = |n: usize| (0..n).map(|i| (10 * i, [0.9, 0.5, 2.0, 4.0])).collect::<Vec<_>>();
+    assert!(with(&moved(3)).within_rounding());
+    assert!(!with(&moved(4)).within_rounding());
+    assert!(!with(&[(0, [f32::NAN, 0.5, 2.0, 3.0])]).within_rounding());
+    assert!(!with(&[(5, [0.1, 0.5, 2.0, f32::INFINITY])]).within_rounding());
+}

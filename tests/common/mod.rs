@@ -165,31 +165,21 @@ pub fn kernels_round_alike() -> bool {
     renderer().gpu.adapter_info.device_type == wgpu::DeviceType::Cpu
 }
 
-/// Per-pixel sums (rgb, sample count) of the same render by two kernels are the same image: bit
-/// for bit where the kernels round alike (`kernels_round_alike`). Elsewhere the counts are equal
-/// and each pixel's rgb agrees to 1e-4 of its value, a thousand times f32's rounding, which
-/// fused operations change by an ulp at a time, except in at most 1% of the pixels (at least
-/// one): there one rounding moved a ray across a triangle's edge or a random number across a
-/// decision, which changes the pixel by a whole sample. A failure writes both images and their
-/// difference.
+/// Per-pixel sums of the same render by two kernels (rgb and a fourth channel: the sample count,
+/// or a contribution image's emitted luminance) are the same image: bit for bit where the kernels
+/// round alike (`kernels_round_alike`). Elsewhere each pixel's four channels agree to 1e-4 of
+/// their value, about a thousand times f32's rounding, which fused operations change by an ulp
+/// at a time (a sample count of a few thousand at most, so only an equal count passes), except
+/// in at most 1% of the pixels (at least one): there one rounding moved a ray across a triangle's
+/// edge or a random number across a decision, which changes the pixel by a whole sample. A
+/// non-finite value that the other image lacks fails either way. A failure writes both images
+/// and their difference.
 pub fn assert_same_image(test: &str, what: &str, a: &[[f32; 4]], b: &[[f32; 4]], width: u32) {
     assert_eq!(a.len(), b.len(), "{what}: image sizes differ");
     let exact = kernels_round_alike();
-    let scale = a.iter().flat_map(|p| p[..3].iter()).map(|v| v.abs()).fold(0.0f32, f32::max);
-    let (mut differ, mut far, mut counts, mut worst) = (0usize, 0usize, 0usize, 0.0f32);
-    for (p, q) in a.iter().zip(b) {
-        if p != q {
-            differ += 1;
-        }
-        counts += usize::from(p[3] != q[3]);
-        let rel = (0..3)
-            .map(|c| (p[c] - q[c]).abs() / (p[c].abs().max(q[c].abs()) + 1e-6 * scale).max(f32::MIN_POSITIVE))
-            .fold(0.0f32, f32::max);
-        worst = worst.max(rel);
-        far += usize::from(rel.is_nan() || rel > 1e-4);
-    }
-    let allowed_far = (a.len() / 100).max(1);
-    let same = if exact { differ == 0 } else { counts == 0 && far <= allowed_far };
+    let agreement = ImageAgreement::of(a, b);
+    let same = if exact { agreement.differ == 0 } else { agreement.within_rounding() };
+    let ImageAgreement { differ, far, allowed_far, nonfinite, worst } = agreement;
     if same && differ > 0 {
         // Seen with --nocapture (scripts/gpu-tests.sh): how far apart a GPU's kernels round.
         eprintln!("{what}: {differ} of {} pixels differ, {far} beyond 1e-4 (largest {worst:.2e})", a.len());
@@ -205,10 +195,47 @@ pub fn assert_same_image(test: &str, what: &str, a: &[[f32; 4]], b: &[[f32; 4]],
         let rule = if exact { "bit for bit".to_string() } else { format!("at most {allowed_far} beyond 1e-4") };
         panic!(
             "{what}: images differ ({rule}): {differ} of {} pixels differ, {far} by more than 1e-4 relative \
-             (largest {worst:.2e}), {counts} in their sample counts; images in {}",
+             (largest {worst:.2e}), {nonfinite} with a non-finite value; images in {}",
             a.len(),
             dir.display()
         );
+    }
+}
+
+/// How two images of per-pixel sums differ (`assert_same_image`).
+#[derive(Debug)]
+pub struct ImageAgreement {
+    /// Pixels not equal bit for bit.
+    pub differ: usize,
+    /// Pixels with a channel off by more than 1e-4 of its value.
+    pub far: usize,
+    /// 1% of the pixels, at least one.
+    pub allowed_far: usize,
+    /// Pixels that differ where either has a non-finite channel: never rounding.
+    pub nonfinite: usize,
+    /// The largest relative difference of any channel.
+    pub worst: f32,
+}
+
+impl ImageAgreement {
+    pub fn of(a: &[[f32; 4]], b: &[[f32; 4]]) -> ImageAgreement {
+        let scale = a.iter().flat_map(|p| p[..3].iter()).map(|v| v.abs()).fold(0.0f32, f32::max);
+        let (mut differ, mut far, mut nonfinite, mut worst) = (0usize, 0usize, 0usize, 0.0f32);
+        for (p, q) in a.iter().zip(b) {
+            differ += usize::from(p != q);
+            nonfinite += usize::from(p != q && !p.iter().chain(q).all(|v| v.is_finite()));
+            let rel = (0..4)
+                .map(|c| (p[c] - q[c]).abs() / (p[c].abs().max(q[c].abs()) + 1e-6 * scale).max(f32::MIN_POSITIVE))
+                .fold(0.0f32, f32::max);
+            worst = worst.max(rel);
+            far += usize::from(rel.is_nan() || rel > 1e-4);
+        }
+        ImageAgreement { differ, far, allowed_far: (a.len() / 100).max(1), nonfinite, worst }
+    }
+
+    /// The rule where kernels do not round alike.
+    pub fn within_rounding(&self) -> bool {
+        self.far <= self.allowed_far && self.nonfinite == 0
     }
 }
 
