@@ -96,20 +96,7 @@ fn specialised_kernels_render_the_generic_kernels_image() {
                 assert_same_image("specialised", &what, &special.sum, &generic.sum, settings.width);
                 if write_aovs {
                     let (a, b) = (special.contributions.unwrap(), generic.contributions.unwrap());
-                    assert_same_image(
-                        "specialised",
-                        &format!("{what}: light contributions"),
-                        &a.light,
-                        &b.light,
-                        settings.width,
-                    );
-                    assert_same_image(
-                        "specialised",
-                        &format!("{what}: BRDF contributions"),
-                        &a.brdf,
-                        &b.brdf,
-                        settings.width,
-                    );
+                    assert_same_contributions("specialised", &what, &a, &b, settings.width);
                 }
             }
         }
@@ -167,20 +154,7 @@ fn wavefront_kernels_render_the_megakernels_image() {
                 assert!(mega.rays > 0, "{what}: no rays");
                 if write_aovs {
                     let (a, b) = (wave.contributions.unwrap(), mega.contributions.unwrap());
-                    assert_same_image(
-                        "wavefront",
-                        &format!("{what}: light contributions"),
-                        &a.light,
-                        &b.light,
-                        mega.width,
-                    );
-                    assert_same_image(
-                        "wavefront",
-                        &format!("{what}: BRDF contributions"),
-                        &a.brdf,
-                        &b.brdf,
-                        mega.width,
-                    );
+                    assert_same_contributions("wavefront", &what, &a, &b, mega.width);
                 }
                 // The generic kernel (strategy read at run time) split the same way.
                 if !write_aovs {

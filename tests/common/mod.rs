@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 use std::sync::OnceLock;
 use veach::assets::gltf_writer::GltfBuilder;
-use veach::output::RenderOutput;
+use veach::output::{Contributions, RenderOutput};
 use veach::render::GpuScene;
 use veach::scene::{Camera, Scene};
 use veach::{GpuContext, RenderSettings, Renderer};
@@ -200,6 +200,12 @@ pub fn assert_same_image(test: &str, what: &str, a: &[[f32; 4]], b: &[[f32; 4]],
             dir.display()
         );
     }
+}
+
+/// `assert_same_image` for both contribution images (light samples', BRDF samples') of a render.
+pub fn assert_same_contributions(test: &str, what: &str, a: &Contributions, b: &Contributions, width: u32) {
+    assert_same_image(test, &format!("{what}: light contributions"), &a.light, &b.light, width);
+    assert_same_image(test, &format!("{what}: BRDF contributions"), &a.brdf, &b.brdf, width);
 }
 
 /// How two images of per-pixel sums differ (`assert_same_image`).
