@@ -1,5 +1,8 @@
 //! The WGSL kernel, composed at load time from one file per concept in `shaders/`.
 
+use std::borrow::Cow;
+use std::path::Path;
+
 use crate::features::UniformArrays;
 use crate::gpu::baked_triangles::{BakedList, BakedTriangles};
 use crate::gpu::bvh_nodes::BVH_STACK_SIZE;
@@ -96,9 +99,10 @@ pub fn render_kernel_source(
             other => other,
         };
         source.push_str(&format!("// ---- shaders/{name} ----\n"));
+        let text = shader_text(name, text);
         match baked.filter(|_| file == TRAVERSAL) {
-            Some(triangles) => source.push_str(&bake_triangles(text, triangles)),
-            None => source.push_str(text),
+            Some(triangles) => source.push_str(&bake_triangles(&text, triangles)),
+            None => source.push_str(&text),
         }
         source.push('\n');
     }
@@ -130,6 +134,31 @@ pub fn render_kernel_source(
             .replace(FRAME_LOAD, "fn load_frame() {\n    frame = frame_in;\n}");
     }
     source
+}
+
+/// The environment variable naming a folder whose WGSL files replace the built-in ones: for trying
+/// a shader change (on a lent GPU, say) with one built binary, never for rendering.
+pub const SHADER_DIR_VARIABLE: &str = "VEACH_SHADER_DIR";
+
+/// Shader file `name`: from `VEACH_SHADER_DIR` where that is set, else the text built in.
+fn shader_text(name: &str, built_in: &'static str) -> Cow<'static, str> {
+    shader_text_in(std::env::var_os(SHADER_DIR_VARIABLE).as_deref().map(Path::new), name, built_in)
+}
+
+/// Shader file `name` from `dir`, or the text built in. A file that cannot be read there is a
+/// warning and the built-in text, so that a misspelt folder shows in the output.
+fn shader_text_in(dir: Option<&Path>, name: &str, built_in: &'static str) -> Cow<'static, str> {
+    let Some(dir) = dir else {
+        return built_in.into();
+    };
+    let path = dir.join(name);
+    match std::fs::read_to_string(&path) {
+        Ok(text) => text.into(),
+        Err(e) => {
+            eprintln!("warning: {SHADER_DIR_VARIABLE}: cannot read {}: {e}; using the built-in {name}", path.display());
+            built_in.into()
+        }
+    }
 }
 
 /// traverse_baked.wgsl with each `{baked STATEMENT | BOX_TEST}` line written out once per triangle,
@@ -178,6 +207,19 @@ pub fn validate_wgsl(source: &str) -> Result<naga::Module, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_shader_folder_replaces_the_files_it_has() {
+        let dir = std::env::temp_dir().join(format!("veach-shader-dir-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(dir.join("mis.wgsl"), "// replaced\n").unwrap();
+        let (name, built_in) = SHADER_FILES.iter().copied().find(|(n, _)| *n == "mis.wgsl").unwrap();
+        assert_eq!(shader_text_in(Some(&dir), name, built_in), "// replaced\n");
+        // A file the folder lacks, and no folder at all: the built-in text.
+        assert_eq!(shader_text_in(Some(&dir), "rng.wgsl", "built in"), "built in");
+        assert_eq!(shader_text_in(None, name, built_in), built_in);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 
     #[test]
     fn all_wgsl_validates_with_naga() {
