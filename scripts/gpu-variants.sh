@@ -9,6 +9,8 @@
 #   VARIANTS     the folders' names, in order ("built-in" and every folder under .gpu/shaders)
 #   EXECUTIONS   "wavefront" (or megakernel, auto; several run in turn)
 #   RAYS         1 (0: leave out gpu-rays.sh)
+#   WIDTH, HEIGHT, SPP   the light sweep's renders (1920, 1080, 256; small ones try the script on
+#                lavapipe: WIDTH=64 HEIGHT=64 SPP=2 RAYS=0)
 #
 # Here, before the call:
 #   cargo build --release && strip -o .gpu/veach target/release/veach
@@ -33,7 +35,7 @@ for v in $variants; do
         dir="$out/$v-$execution"
         mkdir -p "$dir"
         echo "== $v, $execution"
-        "$veach" scale --triangles 0 --lights 1,10000 --width 1920 --height 1080 --spp 256 --repeats 5 \
+        "$veach" scale --triangles 0 --lights 1,10000 --width "${WIDTH:-1920}" --height "${HEIGHT:-1080}" --spp "${SPP:-256}" --repeats 5 \
             --execution "$execution" -o "$dir/scale" 2>&1 | grep -E '^\| [0-9]|warning|error' || true
         cp "$dir/scale/scale.csv" "$dir/" 2>/dev/null || true
         rm -rf "$dir/scale"
