@@ -16,7 +16,8 @@
 #   cargo build --release && strip -o .gpu/veach target/release/veach
 #   mkdir -p .gpu/shaders/NAME && git archive REF shaders | tar -x --strip-components=1 -C .gpu/shaders/NAME
 # There: run(command="scripts/gpu-variants.sh", carry=[".gpu", ".gl"]): about 30 s a variant and
-# execution on the H200. scale.csv and the renders' stats go to $OUT/VARIANT-EXECUTION/.
+# execution on the H200. scale.csv and the renders' stats go to $OUT/VARIANT-EXECUTION/; a table
+# of every variant against the first ends the output (scripts/gpu-variants-table.py).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 # shellcheck source=scripts/gpu-env.sh
@@ -45,3 +46,5 @@ for v in $variants; do
         echo "($((SECONDS - start)) s)"
     done
 done
+# shellcheck disable=SC2086
+python3 scripts/gpu-variants-table.py "$out" $variants || true
