@@ -140,9 +140,15 @@ pub fn render_kernel_source(
 /// a shader change (on a lent GPU, say) with one built binary, never for rendering.
 pub const SHADER_DIR_VARIABLE: &str = "VEACH_SHADER_DIR";
 
-/// Shader file `name`: from `VEACH_SHADER_DIR` where that is set, else the text built in.
+/// Shader file `name`: from `VEACH_SHADER_DIR` where that is set (said once on stderr, since the
+/// images are then that folder's), else the text built in.
 fn shader_text(name: &str, built_in: &'static str) -> Cow<'static, str> {
-    shader_text_in(std::env::var_os(SHADER_DIR_VARIABLE).as_deref().map(Path::new), name, built_in)
+    let dir = std::env::var_os(SHADER_DIR_VARIABLE);
+    if let Some(dir) = &dir {
+        static NOTICE: std::sync::Once = std::sync::Once::new();
+        NOTICE.call_once(|| eprintln!("note: shaders read from {SHADER_DIR_VARIABLE}={}", Path::new(dir).display()));
+    }
+    shader_text_in(dir.as_deref().map(Path::new), name, built_in)
 }
 
 /// Shader file `name` from `dir`, or the text built in. A file that cannot be read there is a
