@@ -12,7 +12,8 @@
 #   WIDTH, HEIGHT, SPP   the light sweep's renders (1920, 1080, 256; small ones try the script on
 #                lavapipe: WIDTH=64 HEIGHT=64 SPP=2 RAYS=0)
 #
-# Here, before the call:
+# Here, before the call: scripts/prepare-gpu-variants.sh (the binary, and a folder per experiment/*
+# branch), or by hand:
 #   cargo build --release && strip -o .gpu/veach target/release/veach
 #   mkdir -p .gpu/shaders/NAME && git archive REF shaders | tar -x --strip-components=1 -C .gpu/shaders/NAME
 # There: run(command="scripts/gpu-variants.sh", carry=[".gpu", ".gl"]): about 30 s a variant and
