@@ -11,7 +11,8 @@ use veach::{GpuContext, Renderer};
 Light sweep: a floor under a grid of --light-grid small triangles of which K emit (each its own light), with a \
 total power that does not depend on K: the geometry is the same for every K. \
 Every point is written as glTF to DIR/scenes, loaded back, built and uploaded, rendered once untimed (the \
-kernel's compile), then --repeats times with MIS 1 + 1, lights chosen by power; the median render time is \
+kernel's compile), then --repeats times with MIS 1 + 1, lights chosen by power, each repeat rendering every \
+point of the sweep in turn, so that drift in the machine's speed moves every point alike; the median render time is \
 reported (GPU timestamps where the adapter has them, else wall clock). GPU bytes per triangle count every \
 buffer of the scene (BVH nodes, triangle positions and shading data, materials, lights).")]
 pub struct ScaleArgs {
@@ -46,7 +47,7 @@ pub struct ScaleArgs {
 }
 
 pub fn scale(args: ScaleArgs) -> Result<()> {
-    use veach::scale::{ScaleConfig, run_scale, scale_csv, scale_report};
+    use veach::scale::{ScaleConfig, run_scale, scale_csv, scale_report, scale_steps};
     if args.width == 0 || args.height == 0 || args.spp == 0 || args.repeats == 0 {
         bail!("--width, --height, --spp and --repeats must be at least 1");
     }
@@ -71,7 +72,7 @@ pub fn scale(args: ScaleArgs) -> Result<()> {
     let gpu = GpuContext::new(args.adapter.as_deref())?;
     eprintln!("adapter: {}; driver: {}", gpu.describe(), gpu.driver());
     let renderer = Renderer::new(gpu)?;
-    let bar = ProgressBar::new((config.triangles.len() + config.lights.len()) as u64);
+    let bar = ProgressBar::new(scale_steps(&config) as u64);
     bar.set_style(
         ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {pos}/{len} {msg}")
             .expect("valid template"),

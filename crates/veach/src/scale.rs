@@ -87,16 +87,28 @@ pub fn scale_strategies(config: &ScaleConfig, sweep: &str) -> Vec<(&'static str,
     list
 }
 
-/// Writes the scene, loads it back as a user's file would be, builds and uploads it, and for each
-/// of the sweep's settings renders it `repeats` times after one untimed render (the kernel's
-/// compile): one row per setting.
-fn measure_point(
+/// One point of a sweep: its scene written, loaded back as a user's file would be, built and
+/// uploaded, and each of the sweep's settings rendered once untimed (the kernel's compile).
+struct ScalePoint {
+    sweep: &'static str,
+    triangles: usize,
+    lights: usize,
+    load_seconds: f64,
+    gpu_scene: crate::render::GpuScene,
+    camera: crate::scene::Camera,
+    settings: Vec<(&'static str, RenderSettings)>,
+    /// Per setting: the timed renders' seconds, and the rays of the last.
+    times: Vec<Vec<f64>>,
+    rays: Vec<u64>,
+}
+
+fn prepare_point(
     renderer: &Renderer,
     config: &ScaleConfig,
     sweep: &'static str,
     name: &str,
     builder: crate::assets::gltf_writer::GltfBuilder,
-) -> Result<Vec<ScaleRow>> {
+) -> Result<ScalePoint> {
     let path = config.output.join("scenes").join(format!("{name}.gltf"));
     builder.write(&path)?;
     let load_start = Instant::now();
@@ -106,53 +118,96 @@ fn measure_point(
     // Every size in storage memory, so that the sweep compares traversals alike: the smallest
     // would otherwise get the uniform BVH of lavapipe (`BvhMemory::Auto`).
     let gpu_scene = renderer.upload_scene_with(&scene, crate::render::BvhMemory::Storage)?;
-    let stats = &gpu_scene.stats;
-    let mut rows = Vec::new();
-    for (strategy, settings) in scale_strategies(config, sweep) {
-        renderer.render(&gpu_scene, &RenderSettings { spp: 1, ..settings.clone() }, &camera, &mut |_| true)?;
-        let mut times = Vec::new();
-        let mut rays = 0;
-        for _ in 0..config.repeats.max(1) {
-            let out = renderer.render(&gpu_scene, &settings, &camera, &mut |_| true)?;
-            times.push(render_seconds(&out));
-            rays = out.rays;
+    let settings = scale_strategies(config, sweep);
+    for (_, s) in &settings {
+        renderer.render(&gpu_scene, &RenderSettings { spp: 1, ..s.clone() }, &camera, &mut |_| true)?;
+    }
+    Ok(ScalePoint {
+        sweep,
+        triangles: scene.triangles.len(),
+        lights: scene.lights.len(),
+        load_seconds,
+        gpu_scene,
+        camera,
+        times: vec![Vec::new(); settings.len()],
+        rays: vec![0; settings.len()],
+        settings,
+    })
+}
+
+/// Times every point of a sweep `repeats` times, each repeat rendering every point and setting
+/// once in turn (as `veach bench` alternates its kernels): a drift in the machine's speed over the
+/// sweep then moves every point alike instead of the last ones. Noise faster than one repeat
+/// (seconds) is what the median is for; on the 2-core VM that noise dominates, and seven runs of
+/// the light sweep spread as widely in order as in turn (MIS 1 + 1: 1.12-1.70x against 1.38-1.89x).
+fn time_points(renderer: &Renderer, config: &ScaleConfig, points: &mut [ScalePoint]) -> Result<()> {
+    for _ in 0..config.repeats.max(1) {
+        for p in points.iter_mut() {
+            for (k, (_, settings)) in p.settings.iter().enumerate() {
+                let out = renderer.render(&p.gpu_scene, settings, &p.camera, &mut |_| true)?;
+                p.times[k].push(render_seconds(&out));
+                p.rays[k] = out.rays;
+            }
         }
-        times.sort_by(f64::total_cmp);
-        rows.push(ScaleRow {
-            sweep,
-            strategy,
-            triangles: scene.triangles.len(),
-            lights: scene.lights.len(),
-            load_seconds,
-            bvh_build_seconds: stats.bvh_build.as_secs_f64(),
-            bvh_nodes: stats.bvh_nodes,
-            gpu_scene_bytes: stats.gpu_scene_bytes,
-            render_seconds: times[times.len() / 2],
-            spp: settings.spp,
-            rays,
-        });
+    }
+    Ok(())
+}
+
+/// A point's rows, one per setting, with the median of its renders.
+fn point_rows(p: &ScalePoint) -> Vec<ScaleRow> {
+    let stats = &p.gpu_scene.stats;
+    p.settings
+        .iter()
+        .enumerate()
+        .map(|(k, (strategy, settings))| {
+            let mut times = p.times[k].clone();
+            times.sort_by(f64::total_cmp);
+            ScaleRow {
+                sweep: p.sweep,
+                strategy,
+                triangles: p.triangles,
+                lights: p.lights,
+                load_seconds: p.load_seconds,
+                bvh_build_seconds: stats.bvh_build.as_secs_f64(),
+                bvh_nodes: stats.bvh_nodes,
+                gpu_scene_bytes: stats.gpu_scene_bytes,
+                render_seconds: times.get(times.len() / 2).copied().unwrap_or(0.0),
+                spp: settings.spp,
+                rays: p.rays[k],
+            }
+        })
+        .collect()
+}
+
+/// Both sweeps; `progress` hears what is being done: each point's preparation, then each sweep's
+/// timed renders (`scale_steps` of them in all).
+pub fn run_scale(renderer: &Renderer, config: &ScaleConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<ScaleRow>> {
+    let mut rows = Vec::new();
+    for (sweep, counts) in [("triangles", &config.triangles), ("lights", &config.lights)] {
+        if counts.is_empty() {
+            continue;
+        }
+        let mut points = Vec::new();
+        for &n in counts {
+            progress(&format!("{n} {sweep}: build and compile"));
+            let point = if sweep == "triangles" {
+                prepare_point(renderer, config, sweep, &format!("scale-triangles-{n}"), triangle_scene(n))?
+            } else {
+                prepare_point(renderer, config, sweep, &format!("scale-lights-{n}"), light_scene(n, config.light_grid))?
+            };
+            points.push(point);
+        }
+        progress(&format!("{sweep}: {} renders of each point, in turn", config.repeats.max(1)));
+        time_points(renderer, config, &mut points)?;
+        rows.extend(points.iter().flat_map(point_rows));
     }
     Ok(rows)
 }
 
-/// Both sweeps; `progress` hears what is being measured.
-pub fn run_scale(renderer: &Renderer, config: &ScaleConfig, progress: &mut dyn FnMut(&str)) -> Result<Vec<ScaleRow>> {
-    let mut rows = Vec::new();
-    for &n in &config.triangles {
-        progress(&format!("{n} triangles"));
-        rows.extend(measure_point(renderer, config, "triangles", &format!("scale-triangles-{n}"), triangle_scene(n))?);
-    }
-    for &k in &config.lights {
-        progress(&format!("{k} lights"));
-        rows.extend(measure_point(
-            renderer,
-            config,
-            "lights",
-            &format!("scale-lights-{k}"),
-            light_scene(k, config.light_grid),
-        )?);
-    }
-    Ok(rows)
+/// How many messages run_scale sends `progress`: one per point and one per sweep.
+pub fn scale_steps(config: &ScaleConfig) -> usize {
+    let sweeps = [&config.triangles, &config.lights].iter().filter(|c| !c.is_empty()).count();
+    config.triangles.len() + config.lights.len() + sweeps
 }
 
 pub fn scale_csv(rows: &[ScaleRow]) -> String {
