@@ -139,7 +139,7 @@ fn prepare_point(
 /// once in turn (as `veach bench` alternates its kernels): a drift in the machine's speed over the
 /// sweep then moves every point alike instead of the last ones. Noise faster than one repeat
 /// (seconds) is what the median is for; on the 2-core VM that noise dominates, and seven runs of
-/// the light sweep spread as widely in order as in turn (MIS 1 + 1: 1.12-1.70x against 1.38-1.89x).
+/// the light sweep spread as widely in order as in turn (MIS 1 + 1: 1.12-1.70x against 1.44-1.89x).
 fn time_points(renderer: &Renderer, config: &ScaleConfig, points: &mut [ScalePoint]) -> Result<()> {
     for _ in 0..config.repeats.max(1) {
         for p in points.iter_mut() {
