@@ -190,12 +190,8 @@ pub fn run_scale(renderer: &Renderer, config: &ScaleConfig, progress: &mut dyn F
         let mut points = Vec::new();
         for &n in counts {
             progress(&format!("{n} {sweep}: build and compile"));
-            let point = if sweep == "triangles" {
-                prepare_point(renderer, config, sweep, &format!("scale-triangles-{n}"), triangle_scene(n))?
-            } else {
-                prepare_point(renderer, config, sweep, &format!("scale-lights-{n}"), light_scene(n, config.light_grid))?
-            };
-            points.push(point);
+            let scene = if sweep == "triangles" { triangle_scene(n) } else { light_scene(n, config.light_grid) };
+            points.push(prepare_point(renderer, config, sweep, &format!("scale-{sweep}-{n}"), scene)?);
         }
         progress(&format!("{sweep}: {} renders of each point, in turn", config.repeats.max(1)));
         time_points(renderer, config, &mut points)?;

@@ -46,7 +46,7 @@ pub const TEST_ENTRY_POINT: &str = "run_test";
 pub fn test_kernel_source(baked: Option<&BakedTriangles>, bvh_stack: u32) -> String {
     let (name, text) = TEST_KERNELS;
     let render = render_kernel_source(true, UniformArrays::default(), false, baked, bvh_stack);
-    format!("{render}// ---- shaders/{name} ----\n{text}\n")
+    format!("{render}// ---- shaders/{name} ----\n{}\n", shader_text(name, text))
 }
 
 /// How layout.wgsl declares the frame's parameters and fills their copy (`KernelKey::frame_copy`).
