@@ -54,6 +54,10 @@ override CONTROL_VARIATE: bool = true;
 // "Sample loops left out").
 override AT_MOST_ONE_LIGHT_REQUEST: bool = false;
 override AT_MOST_ONE_DIRECTION_SAMPLE: bool = false;
+// With AT_MOST_ONE_DIRECTION_SAMPLE (and no cone sampling): a camera sample in straight-line code,
+// its direction sample's ray traced at a call site of its own (integrator.wgsl,
+// estimate_radiance_straight), not on a second pass of one loop (KernelKey::straight_line_sample).
+override STRAIGHT_LINE_SAMPLE: bool = false;
 // Threads per workgroup of the kernels that take a pixel each, in columns and rows
 // (KernelKey::workgroup). Not a specialisation: a size the driver runs fastest.
 override RENDER_WORKGROUP_WIDTH: u32 = 8u;

@@ -600,12 +600,61 @@ fn next_direction_sample(c: ShadingContext, plan: SamplePlan, taken: u32, light_
     return NextDirection(d, origin, t_max);
 }
 
+// estimate_radiance in straight-line code, for a kernel whose camera samples take at most one
+// direction sample and no cone passes (STRAIGHT_LINE_SAMPLE, features.wgsl): the camera ray, the
+// shading at its hit and the direction sample, then that sample's ray at a second closest-hit call
+// site, then the light samples. The same samples in the same order, so the same image. On Mesa
+// 22.3, which runs a loop's whole body on every pass, the loop's second pass runs the camera hit's
+// shading and the next sample's code again under a mask; here they run once, at the cost of a
+// second traversal that runs a step even where no lane has a ray (docs/performance.md, "Camera
+// samples in straight-line code").
+fn estimate_radiance_straight(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<function, u32>) -> Estimate {
+    var e = Estimate(vec3f(0.0), vec3f(0.0), vec3f(0.0));
+    *rays += 1u;
+    var hit: Hit;
+    if CAMERA_LIST {
+        hit = trace_camera(ray.dir);
+    } else {
+        hit = trace_closest(ray.origin, ray.dir, RAY_INF);
+    }
+    if !hit.found {
+        return e;
+    }
+    let c = shading_context(surface_at(hit, ray.dir), ray.dir);
+    if frame.hide_emitters == 0u {
+        e.emitted = emitted_radiance(c.s);
+    }
+    let plan = sample_plan(c);
+    let light_dim = (*stream).dim;
+    (*stream).dim += light_sample_requests(plan);
+    if plan.m > 0u {
+        // plan.m is 1: the sum of one sample is its mean.
+        let next = next_direction_sample(c, plan, 0u, light_dim, stream, rays, &e);
+        if next.d.valid {
+            *rays += 1u;
+            let found = trace_closest(next.origin, next.d.wi, next.t_max);
+            if found.found {
+                e.brdf += direction_sample_value(c, next.d, plan, found.tri, surface_at(found, next.d.wi));
+            }
+        }
+    }
+    var light_stream = SampleStream((*stream).index, (*stream).seed, light_dim);
+    e.light = estimate_light_samples(c, plan, &light_stream, rays);
+    if uses_control_variate() {
+        e.light += unshadowed_light_integral(c);
+    }
+    return e;
+}
+
 // The camera ray, then the strategy's direction samples and light samples at the surface it hits.
 // Each pass of the loop traces one closest-hit ray, the camera's first and then each direction
 // sample's, so the kernel inlines the closest-hit traversal (and surface_at) once: on lavapipe a
 // second call site, even one never reached, made the mis-lobes kernel 6-10% slower
-// (docs/performance.md).
+// (docs/performance.md). Where that pays, a kernel takes estimate_radiance_straight instead.
 fn estimate_radiance(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<function, u32>) -> Estimate {
+    if STRAIGHT_LINE_SAMPLE && AT_MOST_ONE_DIRECTION_SAMPLE && !CONE_SAMPLING {
+        return estimate_radiance_straight(ray, stream, rays);
+    }
     var e = Estimate(vec3f(0.0), vec3f(0.0), vec3f(0.0));
     var c: ShadingContext;
     var plan = SamplePlan(0u, LIGHT_ALONE, 0u);

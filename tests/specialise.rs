@@ -48,6 +48,9 @@ fn scenes() -> [(&'static str, veach::Scene); 4] {
 #[test]
 fn specialised_kernels_render_the_generic_kernels_image() {
     let cpu = renderer().gpu.adapter_info.device_type == wgpu::DeviceType::Cpu;
+    // Kernels that take their camera samples in straight-line code (KernelKey::straight_line_sample),
+    // compared here with the generic kernel's loop: some must be, where the driver gets them.
+    let mut straight_line = 0;
     for (name, scene) in scenes() {
         let camera = scene.camera(None).unwrap();
         let gpu_scene = upload(&scene);
@@ -78,6 +81,7 @@ fn specialised_kernels_render_the_generic_kernels_image() {
                 let special = render(&gpu_scene, &settings, &camera);
                 let generic = render(&gpu_scene, &RenderSettings { specialise: false, ..settings.clone() }, &camera);
                 assert_ne!(special.kernel, KernelKey::generic());
+                straight_line += special.kernel.straight_line_sample as usize;
                 // The workgroup is the driver's (GpuContext::render_workgroup), not a specialisation.
                 let workgroup = renderer().gpu.render_workgroup(false);
                 assert_eq!(generic.kernel, KernelKey { workgroup, ..KernelKey::generic() });
@@ -101,6 +105,9 @@ fn specialised_kernels_render_the_generic_kernels_image() {
             }
         }
     }
+    let masked = veach::features::AutoExecution::for_adapter(&renderer().gpu.adapter_info)
+        == veach::features::AutoExecution::WavefrontWhereMasked;
+    assert_eq!(straight_line > 0, masked, "{straight_line} straight-line kernels compared");
 }
 
 /// The wavefront kernels (shaders/wavefront.wgsl) take the same samples from the same random

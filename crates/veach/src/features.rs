@@ -203,6 +203,9 @@ pub struct KernelKey {
     /// (`at_most_one_sample`): the kernel takes them without a loop.
     pub at_most_one_light_request: bool,
     pub at_most_one_direction_sample: bool,
+    /// The megakernel takes each camera sample in straight-line code, its direction sample's ray
+    /// at a call site of its own (`straight_line_sample`).
+    pub straight_line_sample: bool,
     /// Entries of the BVH traversal's stack: `gpu::bvh_nodes::BVH_STACK_SIZE`, more for deeper
     /// trees (`GpuScene::bvh_stack`). Not a specialisation: every kernel takes its scene's.
     pub bvh_stack: u32,
@@ -238,6 +241,7 @@ impl KernelKey {
             control_variate: true,
             at_most_one_light_request: false,
             at_most_one_direction_sample: false,
+            straight_line_sample: false,
             bvh_stack: crate::gpu::bvh_nodes::BVH_STACK_SIZE,
             workgroup: crate::gpu::layout::WORKGROUP_SIZE,
         }
@@ -258,6 +262,7 @@ impl KernelKey {
         let parallelograms =
             features.parallelogram_lights && settings.light_sampling != crate::settings::LightSampling::SolidAngle;
         let (at_most_one_light_request, at_most_one_direction_sample) = at_most_one_sample(features, settings);
+        let wavefront = uses_wavefront(features, settings, auto);
         KernelKey {
             strategy: Some(effective_strategy(features, settings).0),
             area_lights: features.area_lights,
@@ -282,7 +287,7 @@ impl KernelKey {
                 features.emissive_texture,
                 features.normal_texture,
             ],
-            wavefront: uses_wavefront(features, settings, auto),
+            wavefront,
             uniform: UniformArrays::default(),
             frame_copy: false,
             baked: None,
@@ -290,6 +295,7 @@ impl KernelKey {
             control_variate: settings.control_variate,
             at_most_one_light_request,
             at_most_one_direction_sample,
+            straight_line_sample: !wavefront && straight_line_sample(features, settings, auto),
             bvh_stack: crate::gpu::bvh_nodes::BVH_STACK_SIZE,
             workgroup: crate::gpu::layout::WORKGROUP_SIZE,
         }
@@ -325,6 +331,7 @@ impl KernelKey {
             ("CONTROL_VARIATE", flag(self.control_variate)),
             ("AT_MOST_ONE_LIGHT_REQUEST", flag(self.at_most_one_light_request)),
             ("AT_MOST_ONE_DIRECTION_SAMPLE", flag(self.at_most_one_direction_sample)),
+            ("STRAIGHT_LINE_SAMPLE", flag(self.straight_line_sample)),
             ("RENDER_WORKGROUP_WIDTH", self.workgroup.0 as f64),
             ("RENDER_WORKGROUP_HEIGHT", self.workgroup.1 as f64),
         ];
@@ -429,6 +436,36 @@ fn mesa_major(driver_info: &str) -> Option<u32> {
     version.split('.').next()?.parse().ok()
 }
 
+/// Whether the megakernel takes its camera samples in straight-line code (integrator.wgsl,
+/// `estimate_radiance_straight`): the camera ray, its hit's shading and at most one direction
+/// sample, whose ray is traced at a second closest-hit call site, instead of on a second pass of
+/// one loop. Measured on Mesa 22's lavapipe alone (docs/performance.md, "Camera samples in
+/// straight-line code"; 256×256, 32 spp, megakernel against megakernel), which runs a loop's whole
+/// body on every pass, the camera hit's shading and texture lookups included:
+/// - light sampling, 2 samples: 0.81-0.85x the time on the shipped scenes, 0.77-0.87x on
+///   `veach scale`'s light grid; uniform and brdf, 1 sample: 0.76-0.83x, textured 0.55-0.57x;
+///   MIS 1 + 1 on the textured scene 0.73x;
+/// - MIS 1 + 1 on untextured scenes 1.04-1.15x (1.15x on the one-light grid, 0.92-0.95x on the
+///   10,000-light grid): its kernel would then inline three traversals (camera, direction,
+///   shadow), and the second closest hit's step and surface, run under a mask where no lane has a
+///   ray, cost more than the second pass saves; mis-lobes 0.97-1.01x. Both keep the loop.
+/// Other drivers keep the loop (not measured).
+pub fn straight_line_sample(features: &SceneFeatures, settings: &RenderSettings, auto: AutoExecution) -> bool {
+    if auto != AutoExecution::WavefrontWhereMasked {
+        return false;
+    }
+    let (_, at_most_one_direction) = at_most_one_sample(features, settings);
+    let cone = features.round_lights && settings.light_sampling == crate::settings::LightSampling::Cone;
+    if !at_most_one_direction || cone {
+        return false;
+    }
+    match effective_strategy(features, settings).0 {
+        Strategy::Light | Strategy::Uniform | Strategy::Brdf => true,
+        Strategy::Mis => features.textures(),
+        Strategy::MisLobes => false,
+    }
+}
+
 /// Whether a render runs the wavefront kernels: as asked, or as `auto` picks for the adapter.
 pub fn uses_wavefront(features: &SceneFeatures, settings: &RenderSettings, auto: AutoExecution) -> bool {
     match settings.execution {
@@ -438,6 +475,8 @@ pub fn uses_wavefront(features: &SceneFeatures, settings: &RenderSettings, auto:
         Execution::Auto if auto == AutoExecution::WavefrontForMis => {
             effective_strategy(features, settings).0 == Strategy::Mis
         }
+        // The straight-line megakernel took 0.75-0.93x the wavefront's time where it applies.
+        Execution::Auto if straight_line_sample(features, settings, auto) => false,
         Execution::Auto => match effective_strategy(features, settings).0 {
             Strategy::Light | Strategy::MisLobes => true,
             Strategy::Uniform | Strategy::Brdf | Strategy::Mis => features.textures(),
@@ -447,7 +486,7 @@ pub fn uses_wavefront(features: &SceneFeatures, settings: &RenderSettings, auto:
 
 #[cfg(test)]
 mod tests {
-    use super::{AutoExecution, SceneFeatures, at_most_one_sample};
+    use super::{AutoExecution, KernelKey, SceneFeatures, at_most_one_sample, straight_line_sample, uses_wavefront};
     use crate::settings::{LightSelection, RenderSettings, Strategy};
 
     /// The flags must bound every plan the kernel makes: a flag set where a point could take two
@@ -476,6 +515,48 @@ mod tests {
         assert_eq!(at(&glossy, Strategy::MisLobes, 1, 0, power), (true, true));
         let diffuse = SceneFeatures { any_glossy: false, ..SceneFeatures::default() };
         assert_eq!(at(&diffuse, Strategy::MisLobes, 1, 1, power), (false, true));
+    }
+
+    /// Straight-line samples only where they were measured to pay: on Mesa 22's lavapipe, for
+    /// light, uniform and brdf kernels with at most one direction sample, and MIS on textured
+    /// scenes; `auto` then runs the megakernel there, and a wavefront asked for by name keeps its
+    /// own kernels.
+    #[test]
+    fn straight_line_samples_only_where_measured_to_pay() {
+        use crate::settings::{Execution, LightSampling};
+        let masked = AutoExecution::WavefrontWhereMasked;
+        let plain = SceneFeatures { area_lights: true, any_glossy: true, ..SceneFeatures::default() };
+        let textured = SceneFeatures { base_color_texture: true, ..plain };
+        let round = SceneFeatures { round_lights: true, ..plain };
+        let s = |strategy, light_samples, brdf_samples| RenderSettings {
+            strategy,
+            light_samples,
+            brdf_samples,
+            light_selection: LightSelection::Power,
+            ..Default::default()
+        };
+        assert!(straight_line_sample(&plain, &s(Strategy::Light, 2, 0), masked));
+        assert!(straight_line_sample(&plain, &s(Strategy::Uniform, 0, 1), masked));
+        assert!(straight_line_sample(&plain, &s(Strategy::Brdf, 0, 1), masked));
+        assert!(!straight_line_sample(&plain, &s(Strategy::Brdf, 0, 2), masked));
+        assert!(!straight_line_sample(&plain, &s(Strategy::Mis, 1, 1), masked));
+        assert!(straight_line_sample(&textured, &s(Strategy::Mis, 1, 1), masked));
+        assert!(!straight_line_sample(&plain, &s(Strategy::MisLobes, 1, 1), masked));
+        let cone = RenderSettings { light_sampling: LightSampling::Cone, ..s(Strategy::Light, 2, 0) };
+        assert!(!straight_line_sample(&round, &cone, masked));
+        for other in [AutoExecution::Megakernel, AutoExecution::WavefrontForMis] {
+            assert!(!straight_line_sample(&textured, &s(Strategy::Light, 2, 0), other));
+        }
+        assert!(!uses_wavefront(&plain, &s(Strategy::Light, 2, 0), masked));
+        assert!(!uses_wavefront(&textured, &s(Strategy::Mis, 1, 1), masked));
+        assert!(uses_wavefront(&plain, &s(Strategy::MisLobes, 1, 1), masked));
+        assert!(uses_wavefront(&round, &cone, masked));
+        let key = KernelKey::specialised(&plain, &s(Strategy::Light, 2, 0), masked);
+        assert!(key.straight_line_sample && !key.wavefront);
+        let wavefront = RenderSettings { execution: Execution::Wavefront, ..s(Strategy::Light, 2, 0) };
+        let key = KernelKey::specialised(&plain, &wavefront, masked);
+        assert!(!key.straight_line_sample && key.wavefront);
+        assert!(!KernelKey::generic().straight_line_sample);
     }
 
     #[test]
