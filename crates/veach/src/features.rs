@@ -449,6 +449,7 @@ fn mesa_major(driver_info: &str) -> Option<u32> {
 ///   10,000-light grid): its kernel would then inline three traversals (camera, direction,
 ///   shadow), and the second closest hit's step and surface, run under a mask where no lane has a
 ///   ray, cost more than the second pass saves; mis-lobes 0.97-1.01x. Both keep the loop.
+///
 /// Other drivers keep the loop (not measured).
 pub fn straight_line_sample(features: &SceneFeatures, settings: &RenderSettings, auto: AutoExecution) -> bool {
     if auto != AutoExecution::WavefrontWhereMasked {
