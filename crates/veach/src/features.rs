@@ -383,10 +383,13 @@ pub fn effective_strategy(features: &SceneFeatures, settings: &RenderSettings) -
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum AutoExecution {
     /// lavapipe from Mesa 22 and older, whose code generator runs both sides of every branch
-    /// under a SIMD mask: the wavefront for light sampling and mis-lobes, whose first kernel
-    /// leaves out the direction-sample code that the megakernel runs masked at every point
-    /// (0.78-0.96x the time), and on textured scenes for every strategy, where the megakernel
-    /// also runs the camera hit's texture lookups masked on every direction sample's pass
+    /// under a SIMD mask. Where a kernel takes its camera samples in straight-line code
+    /// (`straight_line_sample`: light, uniform and brdf with at most one direction sample, and
+    /// MIS on textured scenes) the megakernel, which then runs nothing twice (0.70-0.92x the
+    /// wavefront's time). Elsewhere the wavefront for mis-lobes and for light sampling in cones,
+    /// whose first kernel leaves out the direction-sample code that the megakernel's loop runs
+    /// masked at every point (0.78-0.96x), and on textured scenes for every strategy, where the
+    /// loop also runs the camera hit's texture lookups masked on every direction sample's pass
     /// (0.75-0.88x). Where every point takes direction samples and there are no textures
     /// (uniform, brdf, mis) the queue costs more than it saves: 1.02-1.46x.
     WavefrontWhereMasked,

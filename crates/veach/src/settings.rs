@@ -81,8 +81,10 @@ impl Sampler {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Execution {
     /// Whichever measured faster on the adapter's driver (`features::AutoExecution`): on Mesa 22's
-    /// lavapipe the wavefront for light sampling and mis-lobes, and for every strategy on
-    /// textured scenes; the megakernel otherwise (docs/performance.md, "Megakernel against
+    /// lavapipe the megakernel in straight-line code where it applies (light, uniform and brdf
+    /// with one direction sample at most, MIS on textured scenes), else the wavefront for
+    /// mis-lobes, cone light sampling and textured scenes; the megakernel otherwise
+    /// (docs/performance.md, "Camera samples in straight-line code", "Megakernel against
     /// wavefront").
     #[default]
     Auto,
