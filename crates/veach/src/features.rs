@@ -445,11 +445,11 @@ fn mesa_major(driver_info: &str) -> Option<u32> {
 /// one loop. Measured on Mesa 22's lavapipe alone (docs/performance.md, "Camera samples in
 /// straight-line code"; 256×256, 32 spp, megakernel against megakernel), which runs a loop's whole
 /// body on every pass, the camera hit's shading and texture lookups included:
-/// - light sampling, 2 samples: 0.81-0.85x the time on the shipped scenes, 0.77-0.87x on
+/// - light sampling, 2 samples: 0.81-0.85x the time on the shipped scenes, 0.85-0.95x on
 ///   `veach scale`'s light grid; uniform and brdf, 1 sample: 0.76-0.83x, textured 0.55-0.57x;
 ///   MIS 1 + 1 on the textured scene 0.73x;
-/// - MIS 1 + 1 on untextured scenes 1.04-1.15x (1.15x on the one-light grid, 0.92-0.95x on the
-///   10,000-light grid): its kernel would then inline three traversals (camera, direction,
+/// - MIS 1 + 1 on untextured scenes 1.10-1.15x (1.13-1.23x on the one-light grid, 0.89-0.96x on
+///   the 10,000-light grid): its kernel would then inline three traversals (camera, direction,
 ///   shadow), and the second closest hit's step and surface, run under a mask where no lane has a
 ///   ray, cost more than the second pass saves; mis-lobes 0.97-1.01x. Both keep the loop.
 ///
