@@ -111,10 +111,10 @@ pub struct RenderArgs {
     no_specialise: bool,
     /// One kernel per camera sample, or light samples in one and the direction samples of the
     /// points that take some in a second (auto: whichever measured faster on the driver: with Mesa
-    /// 22's lavapipe the wavefront for mis-lobes and on textured scenes, but the megakernel where a
-    /// camera sample takes one direction sample at most and runs in straight-line code (light;
-    /// brdf and uniform; mis on textured scenes); with NVIDIA's the wavefront for mis; else the
-    /// megakernel)
+    /// 22's lavapipe the wavefront for cone sampling and on textured scenes, but the megakernel
+    /// where a camera sample takes one direction sample at most and runs in straight-line code
+    /// (light; brdf and uniform; mis on textured scenes); with NVIDIA's the wavefront for mis;
+    /// else the megakernel)
     #[arg(long, value_enum, default_value_t = ExecutionArg::Auto)]
     execution: ExecutionArg,
 }

@@ -386,12 +386,12 @@ pub enum AutoExecution {
     /// under a SIMD mask. Where a kernel takes its camera samples in straight-line code
     /// (`straight_line_sample`: light, uniform and brdf with at most one direction sample, and
     /// MIS on textured scenes) the megakernel, which then runs nothing twice (0.70-0.92x the
-    /// wavefront's time). Elsewhere the wavefront for mis-lobes and for light sampling in cones,
-    /// whose first kernel leaves out the direction-sample code that the megakernel's loop runs
-    /// masked at every point (0.78-0.96x), and on textured scenes for every strategy, where the
-    /// loop also runs the camera hit's texture lookups masked on every direction sample's pass
-    /// (0.75-0.88x). Where every point takes direction samples and there are no textures
-    /// (uniform, brdf, mis) the queue costs more than it saves: 1.02-1.46x.
+    /// wavefront's time). Elsewhere the wavefront for light sampling in cones, whose first kernel
+    /// leaves out the direction-sample code that the megakernel's loop runs masked at every point
+    /// (0.78-0.96x when measured), and on textured scenes for every strategy, where the loop also
+    /// runs the camera hit's texture lookups masked on every direction sample's pass (0.75-0.88x;
+    /// mis-lobes 0.96-0.99x). On untextured scenes the queue costs more than it saves: uniform,
+    /// brdf and mis 1.02-1.46x, mis-lobes 1.04-1.18x (the megakernel 0.85-0.96x its time).
     WavefrontWhereMasked,
     /// NVIDIA's driver (an H200, driver 580; docs/performance.md, "On a GPU"): the wavefront for
     /// MIS (0.52-0.92x the time on the three shipped scenes, each execution with its best
@@ -481,9 +481,11 @@ pub fn uses_wavefront(features: &SceneFeatures, settings: &RenderSettings, auto:
         }
         // The straight-line megakernel took 0.75-0.93x the wavefront's time where it applies.
         Execution::Auto if straight_line_sample(features, settings, auto) => false,
+        // Light sampling gets here only with cone samples (more than one direction sample).
+        // mis-lobes on untextured scenes: the megakernel's loop took 0.85-0.96x the wavefront's time.
         Execution::Auto => match effective_strategy(features, settings).0 {
-            Strategy::Light | Strategy::MisLobes => true,
-            Strategy::Uniform | Strategy::Brdf | Strategy::Mis => features.textures(),
+            Strategy::Light => true,
+            Strategy::Uniform | Strategy::Brdf | Strategy::Mis | Strategy::MisLobes => features.textures(),
         },
     }
 }
@@ -553,7 +555,8 @@ mod tests {
         }
         assert!(!uses_wavefront(&plain, &s(Strategy::Light, 2, 0), masked));
         assert!(!uses_wavefront(&textured, &s(Strategy::Mis, 1, 1), masked));
-        assert!(uses_wavefront(&plain, &s(Strategy::MisLobes, 1, 1), masked));
+        assert!(!uses_wavefront(&plain, &s(Strategy::MisLobes, 1, 1), masked));
+        assert!(uses_wavefront(&textured, &s(Strategy::MisLobes, 1, 1), masked));
         assert!(uses_wavefront(&round, &cone, masked));
         let key = KernelKey::specialised(&plain, &s(Strategy::Light, 2, 0), masked);
         assert!(key.straight_line_sample && !key.wavefront);

@@ -82,8 +82,8 @@ impl Sampler {
 pub enum Execution {
     /// Whichever measured faster on the adapter's driver (`features::AutoExecution`): on Mesa 22's
     /// lavapipe the megakernel in straight-line code where it applies (light, uniform and brdf
-    /// with one direction sample at most, MIS on textured scenes), else the wavefront for
-    /// mis-lobes, cone light sampling and textured scenes; the megakernel otherwise
+    /// with one direction sample at most, MIS on textured scenes), else the wavefront for cone
+    /// light sampling and on textured scenes; the megakernel otherwise
     /// (docs/performance.md, "Camera samples in straight-line code", "Megakernel against
     /// wavefront").
     #[default]
