@@ -217,19 +217,21 @@ impl Renderer {
             deferred: key.wavefront,
             test_io: false,
         };
+        let source = shaders::render_kernel_source(
+            key.textures,
+            key.uniform,
+            key.frame_copy,
+            key.baked.as_deref(),
+            key.bvh_stack,
+        );
+        let constants = shaders::pipeline_constants(&source, &key.constants());
         let (pipelines, layout) = bindings::create_pipelines(
             &self.gpu.device,
             "veach render kernel",
-            shaders::render_kernel_source(
-                key.textures,
-                key.uniform,
-                key.frame_copy,
-                key.baked.as_deref(),
-                key.bvh_stack,
-            ),
+            source,
             entry_points,
             extra,
-            &key.constants(),
+            &constants,
         )
         .map_err(Error::Gpu)?;
         let mut pipelines = pipelines.into_iter();

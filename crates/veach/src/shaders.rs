@@ -151,6 +151,41 @@ fn shader_text(name: &str, built_in: &'static str) -> Cow<'static, str> {
     shader_text_in(dir.as_deref().map(Path::new), name, built_in)
 }
 
+/// The override constants of `constants` that `source` declares, and those it does not. The
+/// built-in shaders declare every one; a `VEACH_SHADER_DIR` folder written before a constant was
+/// added does not, and wgpu refuses a pipeline given a constant its module lacks.
+pub fn split_declared_constants<'a>(
+    source: &str,
+    constants: &[(&'a str, f64)],
+) -> (Vec<(&'a str, f64)>, Vec<(&'a str, f64)>) {
+    let declared = |name: &str| {
+        source.match_indices(&format!("override {name}")).any(|(at, m)| {
+            let next = source[at + m.len()..].chars().next();
+            !next.is_some_and(|c| c.is_alphanumeric() || c == '_')
+        })
+    };
+    constants.iter().copied().partition(|(name, _)| declared(name))
+}
+
+/// The constants a kernel is created with: all of them, or with `VEACH_SHADER_DIR` set those its
+/// folder's shaders declare, the others named once on stderr (the folder then runs its own code
+/// where they would have specialised it), so that an older folder stays measurable with a newer
+/// binary.
+pub fn pipeline_constants<'a>(source: &str, constants: &[(&'a str, f64)]) -> Vec<(&'a str, f64)> {
+    if std::env::var_os(SHADER_DIR_VARIABLE).is_none() {
+        return constants.to_vec();
+    }
+    let (kept, left_out) = split_declared_constants(source, constants);
+    if !left_out.is_empty() {
+        static NOTICE: std::sync::Once = std::sync::Once::new();
+        NOTICE.call_once(|| {
+            let names: Vec<String> = left_out.iter().map(|(n, v)| format!("{n} = {v}")).collect();
+            eprintln!("note: {SHADER_DIR_VARIABLE}: its shaders do not declare {}; left out", names.join(", "))
+        });
+    }
+    kept
+}
+
 /// Shader file `name` from `dir`, or the text built in. A file that cannot be read there is a
 /// warning and the built-in text, so that a misspelt folder shows in the output.
 fn shader_text_in(dir: Option<&Path>, name: &str, built_in: &'static str) -> Cow<'static, str> {
@@ -225,6 +260,23 @@ mod tests {
         assert_eq!(shader_text_in(Some(&dir), "rng.wgsl", "built in"), "built in");
         assert_eq!(shader_text_in(None, name, built_in), built_in);
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn constants_a_shader_folder_does_not_declare_are_left_out() {
+        let source = "override HAS_GLOSSY: bool = true;\noverride HAS_GLOSSY_X: bool = true;\n";
+        let (kept, left_out) =
+            split_declared_constants(source, &[("HAS_GLOSSY", 1.0), ("HAS_MIRRORS", 0.0), ("HAS_GLOSSY_X", 0.0)]);
+        assert_eq!(kept, vec![("HAS_GLOSSY", 1.0), ("HAS_GLOSSY_X", 0.0)]);
+        assert_eq!(left_out, vec![("HAS_MIRRORS", 0.0)]);
+        // A name that only begins a declared one is not declared.
+        let (kept, _) =
+            split_declared_constants("override STRAIGHT_LINE_SAMPLE_X: bool;", &[("STRAIGHT_LINE_SAMPLE", 1.0)]);
+        assert!(kept.is_empty());
+        // The built-in shaders declare every constant a kernel is given.
+        let source = render_kernel_source(true, UniformArrays::default(), false, None, 64);
+        let (_, left_out) = split_declared_constants(&source, &crate::features::KernelKey::generic().constants());
+        assert!(left_out.is_empty(), "{left_out:?}");
     }
 
     #[test]
