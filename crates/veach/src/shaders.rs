@@ -151,13 +151,13 @@ fn shader_text(name: &str, built_in: &'static str) -> Cow<'static, str> {
     shader_text_in(dir.as_deref().map(Path::new), name, built_in)
 }
 
+/// Override constants by name, as `KernelKey::constants` gives them.
+pub type Constants<'a> = Vec<(&'a str, f64)>;
+
 /// The override constants of `constants` that `source` declares, and those it does not. The
 /// built-in shaders declare every one; a `VEACH_SHADER_DIR` folder written before a constant was
 /// added does not, and wgpu refuses a pipeline given a constant its module lacks.
-pub fn split_declared_constants<'a>(
-    source: &str,
-    constants: &[(&'a str, f64)],
-) -> (Vec<(&'a str, f64)>, Vec<(&'a str, f64)>) {
+pub fn split_declared_constants<'a>(source: &str, constants: &[(&'a str, f64)]) -> (Constants<'a>, Constants<'a>) {
     let declared = |name: &str| {
         source.match_indices(&format!("override {name}")).any(|(at, m)| {
             let next = source[at + m.len()..].chars().next();
@@ -171,7 +171,7 @@ pub fn split_declared_constants<'a>(
 /// folder's shaders declare, the others named once on stderr (the folder then runs its own code
 /// where they would have specialised it), so that an older folder stays measurable with a newer
 /// binary.
-pub fn pipeline_constants<'a>(source: &str, constants: &[(&'a str, f64)]) -> Vec<(&'a str, f64)> {
+pub fn pipeline_constants<'a>(source: &str, constants: &[(&'a str, f64)]) -> Constants<'a> {
     if std::env::var_os(SHADER_DIR_VARIABLE).is_none() {
         return constants.to_vec();
     }
