@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Builds and strips the binary, and writes one folder of shaders per experiment branch (and the
-# wavefront-runs branch at other run lengths) under .gpu/shaders, for scripts/gpu-variants.sh on
-# a lent GPU: run(command="scripts/gpu-variants.sh", carry=[".gpu", ".gl"]). Branches that
-# change only shaders/ are measured by main's binary this way (docs/performance.md, "The
-# wavefront taken apart on the H200").
+# wavefront-runs branch at other run lengths, and main's shaders with straight-line samples forced
+# on) under .gpu/shaders, for scripts/gpu-variants.sh on a lent GPU:
+# run(command="scripts/gpu-variants.sh", carry=[".gpu", ".gl"]). Branches that change only
+# shaders/ are measured by main's binary this way (docs/performance.md, "The wavefront taken apart
+# on the H200"); a branch's folder without a constant main's binary sets runs with it left out.
 #
 #   scripts/prepare-gpu-variants.sh [BRANCH...]   (default: every experiment/* branch)
 set -euo pipefail
@@ -36,4 +37,12 @@ if [ -d .gpu/shaders/wavefront-runs ]; then
         grep -q "LIGHT_PASS_RUN: u32 = ${r}u" ".gpu/shaders/runs-$r/wavefront.wgsl"
     done
 fi
+# main's shaders with straight-line camera samples wherever a kernel takes at most one direction
+# sample (STRAIGHT_LINE_SAMPLE is set on Mesa 22 only, where it was measured).
+mkdir -p .gpu/shaders/straight-line
+cp shaders/*.wgsl .gpu/shaders/straight-line/
+sed -i 's/if STRAIGHT_LINE_SAMPLE && AT_MOST_ONE_DIRECTION_SAMPLE/if AT_MOST_ONE_DIRECTION_SAMPLE/' \
+    .gpu/shaders/straight-line/integrator.wgsl
+grep -q "if AT_MOST_ONE_DIRECTION_SAMPLE && !CONE_SAMPLING {" .gpu/shaders/straight-line/integrator.wgsl
+echo ".gpu/shaders/straight-line from main's shaders"
 du -sh .gpu
