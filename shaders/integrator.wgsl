@@ -80,6 +80,15 @@ fn emitted_radiance(s: SurfaceHit) -> vec3f {
     return vec3f(0.0);
 }
 
+// A camera ray's closest hit: by the camera list's edge planes where the kernel has one
+// (CAMERA_LIST), else by the closest-hit traversal.
+fn trace_camera_ray(ray: Ray) -> Hit {
+    if CAMERA_LIST {
+        return trace_camera(ray.dir);
+    }
+    return trace_closest(ray.origin, ray.dir, RAY_INF);
+}
+
 struct ShadingContext {
     s: SurfaceHit,
     frame: Frame,
@@ -267,6 +276,16 @@ fn estimate_light_samples(c: ShadingContext, plan: SamplePlan, stream: ptr<funct
         }
     }
     return sum / f32(plan.n);
+}
+
+// The light part of a camera sample's estimate: its light samples, and with the control variate
+// the unshadowed light's integral (control_variate.wgsl).
+fn estimate_light(c: ShadingContext, plan: SamplePlan, stream: ptr<function, SampleStream>, rays: ptr<function, u32>) -> vec3f {
+    var light = estimate_light_samples(c, plan, stream, rays);
+    if uses_control_variate() {
+        light += unshadowed_light_integral(c);
+    }
+    return light;
 }
 
 // Light sample k of the plan, traced with a shadow ray (zero where it is a direction sample).
@@ -611,12 +630,7 @@ fn next_direction_sample(c: ShadingContext, plan: SamplePlan, taken: u32, light_
 fn estimate_radiance_straight(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<function, u32>) -> Estimate {
     var e = Estimate(vec3f(0.0), vec3f(0.0), vec3f(0.0));
     *rays += 1u;
-    var hit: Hit;
-    if CAMERA_LIST {
-        hit = trace_camera(ray.dir);
-    } else {
-        hit = trace_closest(ray.origin, ray.dir, RAY_INF);
-    }
+    let hit = trace_camera_ray(ray);
     if !hit.found {
         return e;
     }
@@ -639,10 +653,7 @@ fn estimate_radiance_straight(ray: Ray, stream: ptr<function, SampleStream>, ray
         }
     }
     var light_stream = SampleStream((*stream).index, (*stream).seed, light_dim);
-    e.light = estimate_light_samples(c, plan, &light_stream, rays);
-    if uses_control_variate() {
-        e.light += unshadowed_light_integral(c);
-    }
+    e.light = estimate_light(c, plan, &light_stream, rays);
     return e;
 }
 
@@ -730,10 +741,7 @@ fn estimate_radiance(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<fu
         e.brdf /= f32(plan.m);
     }
     var light_stream = SampleStream((*stream).index, (*stream).seed, light_dim);
-    e.light = estimate_light_samples(c, plan, &light_stream, rays);
-    if uses_control_variate() {
-        e.light += unshadowed_light_integral(c);
-    }
+    e.light = estimate_light(c, plan, &light_stream, rays);
     if CONE_SAMPLING && plan.n > 0u {
         e.light += cone_sum / f32(plan.n);
     }

@@ -34,22 +34,14 @@ fn render_light_pass(@builtin(global_invocation_id) gid: vec3u) {
     var rays = 1u;
     var e = Estimate(vec3f(0.0), vec3f(0.0), vec3f(0.0));
     // With the camera list this kernel has no closest-hit traversal at all.
-    var hit: Hit;
-    if CAMERA_LIST {
-        hit = trace_camera(ray.dir);
-    } else {
-        hit = trace_closest(ray.origin, ray.dir, RAY_INF);
-    }
+    let hit = trace_camera_ray(ray);
     if hit.found {
         let c = shading_context(surface_at(hit, ray.dir), ray.dir);
         if frame.hide_emitters == 0u {
             e.emitted = emitted_radiance(c.s);
         }
         let plan = sample_plan(c);
-        e.light = estimate_light_samples(c, plan, &stream, &rays);
-        if uses_control_variate() {
-            e.light += unshadowed_light_integral(c);
-        }
+        e.light = estimate_light(c, plan, &stream, &rays);
         if !loop_budget_held() {
             counters[pixel].truncated += 1u;
             return;

@@ -271,7 +271,7 @@ impl KernelKey {
             mirrors: features.any_mirror,
             aovs: settings.write_aovs,
             solid_angle: features.area_lights && settings.light_sampling == crate::settings::LightSampling::SolidAngle,
-            cone: features.round_lights && settings.light_sampling == crate::settings::LightSampling::Cone,
+            cone: cone_sampling(features, settings),
             shadow_rays: !(features.all_lights_round
                 && settings.light_sampling == crate::settings::LightSampling::Cone),
             parallelograms,
@@ -439,6 +439,11 @@ fn mesa_major(driver_info: &str) -> Option<u32> {
     version.split('.').next()?.parse().ok()
 }
 
+/// Whether light samples may be directions in round lights' bounding cones (`KernelKey::cone`).
+fn cone_sampling(features: &SceneFeatures, settings: &RenderSettings) -> bool {
+    features.round_lights && settings.light_sampling == crate::settings::LightSampling::Cone
+}
+
 /// Whether the megakernel takes its camera samples in straight-line code (integrator.wgsl,
 /// `estimate_radiance_straight`): the camera ray, its hit's shading and at most one direction
 /// sample, whose ray is traced at a second closest-hit call site, instead of on a second pass of
@@ -459,8 +464,7 @@ pub fn straight_line_sample(features: &SceneFeatures, settings: &RenderSettings,
         return false;
     }
     let (_, at_most_one_direction) = at_most_one_sample(features, settings);
-    let cone = features.round_lights && settings.light_sampling == crate::settings::LightSampling::Cone;
-    if !at_most_one_direction || cone {
+    if !at_most_one_direction || cone_sampling(features, settings) {
         return false;
     }
     match effective_strategy(features, settings).0 {
