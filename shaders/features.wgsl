@@ -58,6 +58,12 @@ override AT_MOST_ONE_DIRECTION_SAMPLE: bool = false;
 // its direction sample's ray traced at a call site of its own (integrator.wgsl,
 // estimate_radiance_straight), not on a second pass of one loop (KernelKey::straight_line_sample).
 override STRAIGHT_LINE_SAMPLE: bool = false;
+// With AT_MOST_ONE_DIRECTION_SAMPLE (MIS, no cone sampling, no control variate, no contribution
+// images, lights chosen by a table that does not depend on the point): a camera sample's
+// direction ray may wait in its invocation for a later sample's pass, so that the lanes of a SIMD
+// group trace theirs together (integrator.wgsl, estimate_radiance_waiting;
+// KernelKey::waiting_direction_rays).
+override WAITING_DIRECTION_RAYS: bool = false;
 // Threads per workgroup of the kernels that take a pixel each, in columns and rows
 // (KernelKey::workgroup). Not a specialisation: a size the driver runs fastest.
 override RENDER_WORKGROUP_WIDTH: u32 = 8u;

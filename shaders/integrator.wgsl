@@ -423,13 +423,18 @@ fn sample_direction(c: ShadingContext, stream: ptr<function, SampleStream>) -> D
 // throughput, MIS-weighted against the light strategy's density for the same direction (zero
 // unless `e` is on a light; that density converts the light's area pdf to solid angle).
 fn direction_sample_value(c: ShadingContext, d: DirectionSample, plan: SamplePlan, tri: u32, e: SurfaceHit) -> vec3f {
+    return direction_value_at(c.s.p, d, plan, tri, e);
+}
+
+// The same, for a direction sample taken at shading point `p`.
+fn direction_value_at(p: vec3f, d: DirectionSample, plan: SamplePlan, tri: u32, e: SurfaceHit) -> vec3f {
     let le = emitted_radiance(e);
     if all(le == vec3f(0.0)) {
         return vec3f(0.0);
     }
     var w = 1.0;
     if d.mis && HAS_AREA_LIGHTS && e.light != NO_LIGHT && light_count() > 0u && plan.n > 0u {
-        let p_light = area_light_pdf(e.light, c.s.p, triangle_positions(triangles[tri]), e.p);
+        let p_light = area_light_pdf(e.light, p, triangle_positions(triangles[tri]), e.p);
         if p_light > 0.0 {
             w = mis_weight(f32(plan.m), d.pdf, f32(plan.n), p_light);
         }
@@ -556,15 +561,20 @@ fn lobe_mis_plan(c: ShadingContext) -> SamplePlan {
 }
 
 fn sample_plan(c: ShadingContext) -> SamplePlan {
+    if active_strategy() == STRATEGY_MIS_LOBES {
+        return lobe_mis_plan(c);
+    }
+    return strategy_plan();
+}
+
+// The plan of every strategy but mis-lobes: the same at every point.
+fn strategy_plan() -> SamplePlan {
     switch active_strategy() {
         case STRATEGY_UNIFORM, STRATEGY_BRDF: {
             return SamplePlan(0u, LIGHT_ALONE, frame.brdf_samples);
         }
         case STRATEGY_LIGHT: {
             return SamplePlan(frame.light_samples, LIGHT_ALONE, 0u);
-        }
-        case STRATEGY_MIS_LOBES: {
-            return lobe_mis_plan(c);
         }
         default: {
             return SamplePlan(frame.light_samples, LIGHT_MIS, frame.brdf_samples);
@@ -748,6 +758,209 @@ fn estimate_radiance(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<fu
     return e;
 }
 
+// ---------------------------------------------------------------------------------------------
+// Direction rays that wait (WAITING_DIRECTION_RAYS, features.wgsl).
+//
+// Where a render traces a BRDF ray for some camera samples and not for others, the loop above
+// traces them on a pass of their own, which a SIMD group runs if any of its lanes has such a ray:
+// under `veach scale`'s 10,000 lights 30% of camera samples have one, and 94% of lavapipe's 8-lane
+// groups (1 - 0.7^8) run that pass. Here a sample's direction ray may instead wait in its
+// invocation, beside its value so far, and be traced on a later sample's pass. A lane traces its
+// waiting ray when some lane of its group must trace (a second ray would wait, or its run of
+// samples begins or ends: any_lane, lanes.wgsl), so that lanes trace together: about 0.55 passes
+// per sample instead of 0.94 there. The samples are the same, and their values too, bit for bit;
+// only the order in which a pixel adds them up changes, and with it the sums' rounding
+// (docs/performance.md, "Direction rays that wait for the lanes beside them").
+
+// A camera sample whose direction ray waits: its value without that ray, and the ray with what
+// weighs its hit (the shading point for the light pdf of the MIS weight, the sample's density and
+// throughput; the plan is the strategy's, the same for every sample).
+struct WaitingSample {
+    // Emitted radiance plus the light samples' estimate.
+    partial: vec3f,
+    p: vec3f,
+    origin: vec3f,
+    t_max: f32,
+    wi: vec3f,
+    pdf: f32,
+    throughput: vec3f,
+    mis: bool,
+    held: bool,
+}
+
+// What one camera sample's passes complete: the sample itself, unless its direction ray waits,
+// and the sample that waited before it, where its ray was traced on these passes.
+struct WaitingOutcome {
+    current: vec3f,
+    current_complete: bool,
+    earlier: vec3f,
+    earlier_complete: bool,
+}
+
+const CAMERA_PASS: u32 = 0u;
+const EARLIER_PASS: u32 = 1u;
+const CURRENT_PASS: u32 = 2u;
+
+// estimate_radiance for a kernel whose camera samples take at most one direction sample (MIS, at
+// most one BRDF sample, no cone samples), with the direction ray of the sample `waiting` holds,
+// if any, traced here or left to wait on. `finish`: no ray may be left waiting after this sample
+// (the last of the invocation's run, or every one: take_samples_waiting).
+fn estimate_radiance_waiting(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<function, u32>, waiting: ptr<function, WaitingSample>, finish: bool) -> WaitingOutcome {
+    var out = WaitingOutcome(vec3f(0.0), true, vec3f(0.0), false);
+    var e = Estimate(vec3f(0.0), vec3f(0.0), vec3f(0.0));
+    var c: ShadingContext;
+    let plan = strategy_plan();
+    var origin = ray.origin;
+    var d = DirectionSample(ray.dir, 1.0, vec3f(1.0), false, true, NO_LIGHT);
+    var t_max = RAY_INF;
+    // The shading point of the sample whose direction ray this pass traces.
+    var at = vec3f(0.0);
+    var this_pass = CAMERA_PASS;
+    var light_dim = 0u;
+    var seen = false;
+    var next = NextDirection(d, origin, 0.0);
+    next.d.valid = false;
+    var trace_earlier = false;
+    var trace_current = false;
+    let held = (*waiting).held;
+    // One closest-hit call site for all three passes (estimate_radiance says why).
+    loop {
+        *rays += 1u;
+        let hit = trace_closest(origin, d.wi, t_max);
+        if hit.found {
+            let s = surface_at(hit, d.wi);
+            if this_pass == CAMERA_PASS {
+                c = shading_context(s, ray.dir);
+                if frame.hide_emitters == 0u {
+                    e.emitted = emitted_radiance(s);
+                }
+                light_dim = (*stream).dim;
+                (*stream).dim += light_sample_requests(plan);
+                if plan.m > 0u {
+                    next = next_direction_sample(c, plan, 0u, light_dim, stream, rays, &e);
+                }
+            } else {
+                let value = direction_value_at(at, d, plan, hit.tri, s);
+                if this_pass == EARLIER_PASS {
+                    out.earlier = value;
+                } else {
+                    e.brdf = value;
+                }
+            }
+        }
+        if this_pass == CAMERA_PASS {
+            seen = hit.found;
+            // Every lane runs this pass, so all of them vote. A lane must trace where its new ray
+            // would be a second one waiting, or where it finishes; then every lane with a ray
+            // traces it, a waiting one first.
+            let fresh = next.d.valid;
+            let trace_now = any_lane((held && fresh) || (finish && (held || fresh)));
+            trace_earlier = trace_now && held;
+            trace_current = fresh && ((trace_now && !held) || finish);
+        }
+        if this_pass == CAMERA_PASS && trace_earlier {
+            this_pass = EARLIER_PASS;
+            let w = *waiting;
+            d = DirectionSample(w.wi, w.pdf, w.throughput, w.mis, true, NO_LIGHT);
+            origin = w.origin;
+            t_max = w.t_max;
+            at = w.p;
+        } else if this_pass != CURRENT_PASS && trace_current {
+            this_pass = CURRENT_PASS;
+            d = next.d;
+            origin = next.origin;
+            t_max = next.t_max;
+            at = c.s.p;
+        } else {
+            break;
+        }
+    }
+    if trace_earlier {
+        // As estimate_radiance sums a sample: emitted + light, then its direction sample.
+        out.earlier = (*waiting).partial + out.earlier;
+        out.earlier_complete = true;
+        (*waiting).held = false;
+    }
+    if !seen {
+        return out;
+    }
+    var light_stream = SampleStream((*stream).index, (*stream).seed, light_dim);
+    e.light = estimate_light(c, plan, &light_stream, rays);
+    let partial = e.emitted + e.light;
+    if next.d.valid && !trace_current {
+        *waiting = WaitingSample(partial, c.s.p, next.origin, next.t_max, next.d.wi, next.d.pdf, next.d.throughput, next.d.mis, true);
+        out.current_complete = false;
+    }
+    out.current = partial + e.brdf;
+    return out;
+}
+
+// One camera sample's value added to a pixel's sums, as `render` adds it (no contribution images).
+fn add_to_sums(l: vec3f, sum: ptr<function, vec4f>, sum_sq: ptr<function, vec4f>, count: ptr<function, PixelCounters>) {
+    // A non-finite sample is counted and dropped (as a zero), never accumulated.
+    if is_finite3(l) && is_finite3(l * l) {
+        *sum += vec4f(l, 1.0);
+        *sum_sq += vec4f(l * l, 0.0);
+    } else {
+        (*sum).w += 1.0;
+        (*count).nonfinite += 1u;
+    }
+}
+
+// `render`'s samples of pixel `px` from sample `start`, with direction rays that wait
+// (estimate_radiance_waiting). Where a sample is cut short by Mesa 22's loop limit
+// (loop_budget_held) while an earlier one waits, the samples after that one are already in the
+// sums: they fall back to the sums kept when it began to wait, and a later dispatch takes all of
+// them again. A run may then keep no sample at all, so the samples left out are taken again with
+// frame.finish_samples set (Accumulation::take_left_out_samples), where no ray waits and a run
+// keeps every sample before the one cut short, as render's own loop does.
+fn take_samples_waiting(px: BandPixel, start: u32, sum: ptr<function, vec4f>, sum_sq: ptr<function, vec4f>, count: ptr<function, PixelCounters>) {
+    var waiting: WaitingSample;
+    waiting.held = false;
+    var kept_sum = *sum;
+    var kept_sum_sq = *sum_sq;
+    var kept_count = *count;
+    var kept_from = start;
+    var k = start;
+    // Tested at its end, as render's loop (which says why).
+    loop {
+        var stream = pixel_sample_stream(px.index, k);
+        let ray = camera_ray(vec2u(px.x, px.y), sample_2d(&stream));
+        var rays = 0u;
+        let held = waiting.held;
+        let finish = frame.finish_samples != 0u || k + 1u >= frame.sample_start + frame.sample_count;
+        let o = estimate_radiance_waiting(ray, &stream, &rays, &waiting, finish);
+        if !loop_budget_held() {
+            if held {
+                *sum = kept_sum;
+                *sum_sq = kept_sum_sq;
+                (*count).rays = kept_count.rays;
+                (*count).nonfinite = kept_count.nonfinite;
+                (*count).truncated += k - kept_from + 1u;
+            } else {
+                (*count).truncated += 1u;
+            }
+            break;
+        }
+        (*count).rays += rays;
+        if o.earlier_complete {
+            add_to_sums(o.earlier, sum, sum_sq, count);
+        }
+        if o.current_complete {
+            add_to_sums(o.current, sum, sum_sq, count);
+        } else {
+            kept_sum = *sum;
+            kept_sum_sq = *sum_sq;
+            kept_count = *count;
+            kept_from = k;
+        }
+        k++;
+        if k >= frame.sample_start + frame.sample_count {
+            break;
+        }
+    }
+}
+
 // The pixel a thread of a dispatch over a band of rows takes, and whether it lies in the image and
 // the band.
 struct BandPixel {
@@ -824,7 +1037,9 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
     // read the end from `frame` each time: held in a variable, it made the Cornell box 1.10x
     // slower on Mesa 22.3 (not understood; measured twice, before this form).
     var k = u32(sum.w);
-    if k < frame.sample_start + frame.sample_count {
+    if WAITING_DIRECTION_RAYS && k < frame.sample_start + frame.sample_count {
+        take_samples_waiting(px, k, &sum, &sum_sq, &count);
+    } else if k < frame.sample_start + frame.sample_count {
         loop {
             var stream = pixel_sample_stream(pixel, k);
             let ray = camera_ray(vec2u(px.x, px.y), sample_2d(&stream));

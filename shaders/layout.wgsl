@@ -89,6 +89,12 @@ struct FrameParams {
     tile_row: u32,
     emitter_max: vec3f,
     image_height: u32,
+    // 1: no camera sample's direction ray waits for a later sample's pass (integrator.wgsl,
+    // take_samples_waiting): set where samples cut short are taken again.
+    finish_samples: u32,
+    _pad0: u32,
+    _pad1: u32,
+    _pad2: u32,
 }
 
 // A node of the 4-wide BVH, 64 bytes (crates/veach/src/gpu/bvh_nodes.rs): up to four children's

@@ -110,6 +110,89 @@ fn specialised_kernels_render_the_generic_kernels_image() {
     assert_eq!(straight_line > 0, masked, "{straight_line} straight-line kernels compared");
 }
 
+/// Kernels whose direction rays wait for a later camera sample's pass (integrator.wgsl,
+/// estimate_radiance_waiting; KernelKey::waiting_direction_rays) take the same samples as the
+/// generic kernel's loop, with the same values, and only add them up in another order: the same
+/// sample counts, rays and non-finite counts, and sums equal up to reordered sums' rounding. On
+/// `veach scale`'s grid of 64 lights (more than lights.wgsl bounds one by one, so BRDF rays are
+/// traced wherever they cross the grid's box) and the same grid over a glossy floor, MIS with one
+/// BRDF sample and one or three light samples, lights chosen by power, uniformly and each, both
+/// heuristics, in one dispatch and in bands of rows (a run of samples per invocation, or one).
+/// Where the driver gets these kernels (Mesa 22's lavapipe), the test checks that it rendered with
+/// them.
+#[test]
+fn kernels_whose_direction_rays_wait_render_the_loops_image() {
+    let masked = veach::features::AutoExecution::for_adapter(&renderer().gpu.adapter_info)
+        == veach::features::AutoExecution::WavefrontWhereMasked;
+    let mut grids = Vec::new();
+    let matte = veach::assets::scale::light_scene(64, 64);
+    grids.push(("grid", load(&matte, "waiting-grid")));
+    let mut glossy = veach::assets::scale::light_scene(64, 64);
+    let gold = glossy.material(&MaterialDesc::metal("gold", Vec3::new(0.9, 0.7, 0.3), 0.3));
+    let floor = MeshData::quad(
+        Vec3::new(-2.0, 0.01, -2.0),
+        Vec3::new(2.0, 0.01, -2.0),
+        Vec3::new(2.0, 0.01, 2.0),
+        Vec3::new(-2.0, 0.01, 2.0),
+        Vec3::Y,
+    );
+    glossy.add_mesh("gold floor", &floor, gold, Mat4::IDENTITY);
+    grids.push(("glossy grid", load(&glossy, "waiting-glossy-grid")));
+    let mut waited = 0;
+    for (name, scene) in grids {
+        let camera = scene.camera(None).unwrap();
+        let gpu_scene = upload(&scene);
+        for (light_samples, light_selection, heuristic, dispatch_target) in [
+            (1, LightSelection::Power, veach::Heuristic::Power, Duration::from_secs(10)),
+            (1, LightSelection::Uniform, veach::Heuristic::Balance, Duration::from_nanos(1)),
+            (3, LightSelection::Each, veach::Heuristic::Power, Duration::from_secs(10)),
+        ] {
+            let settings = RenderSettings {
+                width: 24,
+                height: 16,
+                spp: 24,
+                strategy: Strategy::Mis,
+                light_samples,
+                brdf_samples: 1,
+                light_selection,
+                heuristic,
+                dispatch_target,
+                seed: 4,
+                ..Default::default()
+            };
+            let special = render(&gpu_scene, &settings, &camera);
+            let generic = render(&gpu_scene, &RenderSettings { specialise: false, ..settings.clone() }, &camera);
+            assert_eq!(special.kernel.waiting_direction_rays, masked, "{name}: {:?}", special.kernel);
+            waited += usize::from(special.kernel.waiting_direction_rays);
+            let what = format!("{name} {light_samples} + 1 {light_selection:?} {heuristic:?} {dispatch_target:?}");
+            let counts = &generic.sum;
+            assert_same_samples_reordered("waiting", &what, &special.sum, &generic.sum, counts, settings.width);
+            let squares = format!("{what}: squares");
+            assert_same_samples_reordered(
+                "waiting",
+                &squares,
+                &special.sum_sq,
+                &generic.sum_sq,
+                counts,
+                settings.width,
+            );
+            assert_same_rays(&what, special.rays, generic.rays);
+            assert_eq!(special.nonfinite_samples, generic.nonfinite_samples, "{what}");
+            // BRDF rays to wait: the same render without BRDF samples traces at least a tenth of a
+            // ray per camera sample fewer (about a third on this grid).
+            let no_brdf = render(&gpu_scene, &RenderSettings { brdf_samples: 0, ..settings.clone() }, &camera);
+            let camera_samples = (settings.width * settings.height * settings.spp) as u64;
+            assert!(
+                special.rays >= no_brdf.rays + camera_samples / 10,
+                "{what}: {} rays, {} without BRDF samples",
+                special.rays,
+                no_brdf.rays
+            );
+        }
+    }
+    assert_eq!(waited > 0, masked, "{waited} kernels with waiting direction rays compared");
+}
+
 /// The wavefront kernels (shaders/wavefront.wgsl) take the same samples from the same random
 /// streams as the megakernel, only in other kernels, so their images, contribution images, ray
 /// and non-finite counts are identical; also when a dispatch is a band of rows (a short dispatch

@@ -251,3 +251,54 @@ pub fn assert_same_rays(what: &str, a: u64, b: u64) {
     let ok = if kernels_round_alike() { a == b } else { a.abs_diff(b) as f64 <= 0.01 * a.max(b) as f64 };
     assert!(ok, "{what}: ray counts differ: {a} and {b}");
 }
+
+/// Per-pixel sums of the same camera samples, added up in another order (kernels whose direction
+/// rays wait: integrator.wgsl, estimate_radiance_waiting) are the same image up to the sums'
+/// rounding: every pixel has the same sample count, and each channel of a sum of n non-negative
+/// samples differs by at most 2n · 2^-24 of the sum (each of the n - 1 additions of either order
+/// rounds by at most 2^-24 of a partial sum no larger than the whole: Higham, "Accuracy and
+/// Stability of Numerical Algorithms", §4.2). n is `counts`' fourth channel (the sums' own, or
+/// theirs for the sums of squares). Where kernels do not round alike (`kernels_round_alike`)
+/// `assert_same_image`'s rule. A failure writes both images and their difference.
+pub fn assert_same_samples_reordered(
+    test: &str,
+    what: &str,
+    a: &[[f32; 4]],
+    b: &[[f32; 4]],
+    counts: &[[f32; 4]],
+    width: u32,
+) {
+    assert_eq!(a.len(), b.len(), "{what}: image sizes differ");
+    if !kernels_round_alike() {
+        return assert_same_image(test, what, a, b, width);
+    }
+    let mut worst: Option<(usize, f32, f32)> = None;
+    for (i, (p, q)) in a.iter().zip(b).enumerate() {
+        // 2n · 2^-24, f32::EPSILON being 2^-23.
+        let bound = counts[i][3] * f32::EPSILON;
+        let counts_differ = p[3] != q[3];
+        let rel = (0..3)
+            .map(|c| (p[c] - q[c]).abs() / p[c].abs().max(q[c].abs()).max(f32::MIN_POSITIVE))
+            .fold(0.0f32, f32::max);
+        let bad = counts_differ || rel.is_nan() || rel > bound || p.iter().chain(q).any(|v| !v.is_finite());
+        if bad && worst.is_none_or(|(_, r, _)| rel > r) {
+            worst = Some((i, rel, bound));
+        }
+    }
+    if let Some((pixel, rel, bound)) = worst {
+        let rgb = |img: &[[f32; 4]]| img.iter().map(|p| [p[0], p[1], p[2]]).collect::<Vec<_>>();
+        let diff = a.iter().zip(b).map(|(p, q)| [0, 1, 2].map(|c| (p[c] - q[c]).abs())).collect();
+        let height = a.len() as u32 / width;
+        let dir = write_failure_images(
+            test,
+            &[("first", width, height, rgb(a)), ("second", width, height, rgb(b)), ("difference", width, height, diff)],
+        );
+        panic!(
+            "{what}: pixel {pixel} differs beyond reordered sums' rounding: {:?} against {:?} (relative {rel:.2e}, \
+             allowed {bound:.2e}); images in {}",
+            a[pixel],
+            b[pixel],
+            dir.display()
+        );
+    }
+}

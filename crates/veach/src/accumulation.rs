@@ -189,6 +189,8 @@ impl Accumulation {
             key.uniform = scene.uniform;
             key.frame_copy = gpu.is_cpu();
             key.baked = scene.baked.clone();
+            // Where direction samples search the emitters' list, no ray of theirs is left to wait.
+            key.waiting_direction_rays &= !scene.baked.as_ref().is_some_and(|b| b.emitter_list());
             // Camera rays by the edge planes through the eye where this camera is at it: in the
             // wavefront's first kernel, which then has no closest-hit list at all, and in the
             // megakernel where the driver branches around the list its camera pass leaves out
@@ -446,8 +448,13 @@ impl Accumulation {
             let (row_start, sample_start) = (self.row_start, self.sample_start);
             self.row_start = 0;
             self.sample_start = fewest;
-            // Pixels that already have samples: the sums are read (fresh_sums false).
-            self.submit(self.settings.height, self.settings.spp - fewest, false, true)?;
+            // Pixels that already have samples: the sums are read (fresh_sums false). No direction
+            // ray waits, so that each run keeps the samples before the one cut short
+            // (take_samples_waiting in shaders/integrator.wgsl).
+            self.params.finish_samples = 1;
+            let submitted = self.submit(self.settings.height, self.settings.spp - fewest, false, true);
+            self.params.finish_samples = 0;
+            submitted?;
             (self.row_start, self.sample_start) = (row_start, sample_start);
         }
     }

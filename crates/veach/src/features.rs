@@ -5,6 +5,10 @@ use crate::scene::{LightKind, Scene};
 use crate::settings::{Execution, RenderSettings, Strategy};
 use serde::Serialize;
 
+/// Lights that lights.wgsl's `emitter_reach` bounds one by one, each by its sphere; past this many
+/// it takes one sphere and one box around all of them (lights.wgsl's `MAX_REACH_LIGHTS`).
+pub const MAX_REACH_LIGHTS: usize = 16;
+
 /// What a scene contains that the kernel may need code for.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize)]
 pub struct SceneFeatures {
@@ -33,6 +37,10 @@ pub struct SceneFeatures {
     pub parallelogram_lights: bool,
     /// Every area light is a parallelogram (true where there are none).
     pub all_area_lights_parallelograms: bool,
+    /// More lights than `emitter_reach` (lights.wgsl) bounds one by one (`MAX_REACH_LIGHTS`): a
+    /// direction sample's ray is then traced wherever it crosses one sphere and box around all
+    /// of them, which lets through many more rays than the lights' own spheres.
+    pub many_lights: bool,
     /// Textures in use, by kind.
     pub base_color_texture: bool,
     pub metallic_roughness_texture: bool,
@@ -75,6 +83,7 @@ impl SceneFeatures {
             all_lights_round: !round.is_empty() && round.iter().all(|&r| r),
             parallelogram_lights: shapes.iter().any(|s| s.is_some_and(|s| s.parallelogram.is_some())),
             all_area_lights_parallelograms: shapes.iter().flatten().all(|s| s.parallelogram.is_some()),
+            many_lights: scene.lights.len() > MAX_REACH_LIGHTS,
             base_color_texture: materials().any(|m| m.base_color_texture.is_some()),
             metallic_roughness_texture: materials().any(|m| m.metallic_roughness_texture.is_some()),
             // An emissive texture matters only where the emissive factor is not zero.
@@ -206,6 +215,9 @@ pub struct KernelKey {
     /// The megakernel takes each camera sample in straight-line code, its direction sample's ray
     /// at a call site of its own (`straight_line_sample`).
     pub straight_line_sample: bool,
+    /// The megakernel lets a camera sample's direction ray wait for a later sample's pass, so that
+    /// the lanes of a SIMD group trace theirs together (`waiting_direction_rays`).
+    pub waiting_direction_rays: bool,
     /// Entries of the BVH traversal's stack: `gpu::bvh_nodes::BVH_STACK_SIZE`, more for deeper
     /// trees (`GpuScene::bvh_stack`). Not a specialisation: every kernel takes its scene's.
     pub bvh_stack: u32,
@@ -242,6 +254,7 @@ impl KernelKey {
             at_most_one_light_request: false,
             at_most_one_direction_sample: false,
             straight_line_sample: false,
+            waiting_direction_rays: false,
             bvh_stack: crate::gpu::bvh_nodes::BVH_STACK_SIZE,
             workgroup: crate::gpu::layout::WORKGROUP_SIZE,
         }
@@ -296,6 +309,7 @@ impl KernelKey {
             at_most_one_light_request,
             at_most_one_direction_sample,
             straight_line_sample: !wavefront && straight_line_sample(features, settings, auto),
+            waiting_direction_rays: !wavefront && waiting_direction_rays(features, settings, auto),
             bvh_stack: crate::gpu::bvh_nodes::BVH_STACK_SIZE,
             workgroup: crate::gpu::layout::WORKGROUP_SIZE,
         }
@@ -332,6 +346,7 @@ impl KernelKey {
             ("AT_MOST_ONE_LIGHT_REQUEST", flag(self.at_most_one_light_request)),
             ("AT_MOST_ONE_DIRECTION_SAMPLE", flag(self.at_most_one_direction_sample)),
             ("STRAIGHT_LINE_SAMPLE", flag(self.straight_line_sample)),
+            ("WAITING_DIRECTION_RAYS", flag(self.waiting_direction_rays)),
             ("RENDER_WORKGROUP_WIDTH", self.workgroup.0 as f64),
             ("RENDER_WORKGROUP_HEIGHT", self.workgroup.1 as f64),
         ];
@@ -474,6 +489,34 @@ pub fn straight_line_sample(features: &SceneFeatures, settings: &RenderSettings,
     }
 }
 
+/// Whether the megakernel lets a camera sample's direction ray wait in its invocation for a later
+/// sample's pass (integrator.wgsl, `estimate_radiance_waiting`), where lanes that have a ray
+/// trace it together instead of each sample's ray on a pass that a SIMD group runs if any lane
+/// needs it. It applies to MIS with one BRDF sample and lights chosen independently of the point
+/// (no cone samples, control variate or contribution images), and was measured on Mesa 22's
+/// lavapipe alone (docs/performance.md, "Direction rays that wait for the lanes beside them";
+/// 256×256, 32 spp, against the loop):
+/// - `veach scale`'s grid, 1,000 and 10,000 lights (many direction rays): 0.85-0.90x;
+/// - the one-light grid and the Veach scene (few: 5.5% of camera samples on the Veach scene) 1.02-1.05x, so
+///   it is taken only past `MAX_REACH_LIGHTS` lights, where `emitter_reach` lets most direction
+///   rays through; the textured scene keeps the straight-line sample (1.19x).
+///
+/// Other drivers keep the loop (not measured).
+pub fn waiting_direction_rays(features: &SceneFeatures, settings: &RenderSettings, auto: AutoExecution) -> bool {
+    if auto != AutoExecution::WavefrontWhereMasked {
+        return false;
+    }
+    let (strategy, _, m) = effective_strategy(features, settings);
+    strategy == Strategy::Mis
+        && m == 1
+        && features.many_lights
+        && !features.textures()
+        && !cone_sampling(features, settings)
+        && !settings.control_variate
+        && !settings.write_aovs
+        && settings.light_selection != crate::settings::LightSelection::Bsdf
+}
+
 /// Whether a render runs the wavefront kernels: as asked, or as `auto` picks for the adapter.
 pub fn uses_wavefront(features: &SceneFeatures, settings: &RenderSettings, auto: AutoExecution) -> bool {
     match settings.execution {
@@ -496,7 +539,10 @@ pub fn uses_wavefront(features: &SceneFeatures, settings: &RenderSettings, auto:
 
 #[cfg(test)]
 mod tests {
-    use super::{AutoExecution, KernelKey, SceneFeatures, at_most_one_sample, straight_line_sample, uses_wavefront};
+    use super::{
+        AutoExecution, KernelKey, MAX_REACH_LIGHTS, SceneFeatures, at_most_one_sample, straight_line_sample,
+        uses_wavefront, waiting_direction_rays,
+    };
     use crate::settings::{LightSelection, RenderSettings, Strategy};
 
     /// The flags must bound every plan the kernel makes: a flag set where a point could take two
@@ -568,6 +614,67 @@ mod tests {
         let key = KernelKey::specialised(&plain, &wavefront, masked);
         assert!(!key.straight_line_sample && key.wavefront);
         assert!(!KernelKey::generic().straight_line_sample);
+    }
+
+    /// Direction rays wait only where that was measured to pay: on Mesa 22's lavapipe, for MIS
+    /// with one BRDF sample on untextured scenes with more lights than `emitter_reach` bounds one
+    /// by one, and never where the kernel's code for it would be wrong (cone samples, the control
+    /// variate, contribution images and lights chosen per point keep the loop).
+    #[test]
+    fn direction_rays_wait_only_where_measured_to_pay() {
+        use crate::settings::{Execution, LightSampling};
+        let masked = AutoExecution::WavefrontWhereMasked;
+        let many = SceneFeatures { area_lights: true, any_glossy: true, many_lights: true, ..SceneFeatures::default() };
+        let few = SceneFeatures { many_lights: false, ..many };
+        let s = |strategy, light_samples, brdf_samples| RenderSettings {
+            strategy,
+            light_samples,
+            brdf_samples,
+            light_selection: LightSelection::Power,
+            ..Default::default()
+        };
+        let mis = s(Strategy::Mis, 1, 1);
+        assert!(waiting_direction_rays(&many, &mis, masked));
+        assert!(waiting_direction_rays(&many, &s(Strategy::Mis, 8, 1), masked));
+        assert!(waiting_direction_rays(
+            &many,
+            &RenderSettings { light_selection: LightSelection::Each, ..mis.clone() },
+            masked
+        ));
+        assert!(!waiting_direction_rays(&few, &mis, masked));
+        assert!(!waiting_direction_rays(&many, &s(Strategy::Mis, 1, 2), masked));
+        assert!(!waiting_direction_rays(&many, &s(Strategy::Mis, 1, 0), masked));
+        for strategy in [Strategy::Light, Strategy::Brdf, Strategy::Uniform, Strategy::MisLobes] {
+            assert!(!waiting_direction_rays(&many, &s(strategy, 1, 1), masked), "{strategy:?}");
+        }
+        let textured = SceneFeatures { base_color_texture: true, ..many };
+        assert!(!waiting_direction_rays(&textured, &mis, masked));
+        let round = SceneFeatures { round_lights: true, ..many };
+        let cone = RenderSettings { light_sampling: LightSampling::Cone, ..mis.clone() };
+        assert!(!waiting_direction_rays(&round, &cone, masked));
+        for unsupported in [
+            RenderSettings { control_variate: true, ..mis.clone() },
+            RenderSettings { write_aovs: true, ..mis.clone() },
+            RenderSettings { light_selection: LightSelection::Bsdf, ..mis.clone() },
+        ] {
+            assert!(!waiting_direction_rays(&many, &unsupported, masked), "{unsupported:?}");
+        }
+        for other in [AutoExecution::Megakernel, AutoExecution::WavefrontForMis] {
+            assert!(!waiting_direction_rays(&many, &mis, other));
+        }
+        // The megakernel's alone: a wavefront asked for by name keeps its own kernels.
+        assert!(KernelKey::specialised(&many, &mis, masked).waiting_direction_rays);
+        let wavefront = RenderSettings { execution: Execution::Wavefront, ..mis.clone() };
+        assert!(!KernelKey::specialised(&many, &wavefront, masked).waiting_direction_rays);
+        assert!(!KernelKey::generic().waiting_direction_rays);
+    }
+
+    /// `SceneFeatures::many_lights` is what lights.wgsl's emitter_reach tests.
+    #[test]
+    fn many_lights_is_where_emitter_reach_stops_bounding_each() {
+        let lights = crate::shaders::SHADER_FILES.iter().find(|(name, _)| *name == "lights.wgsl").unwrap().1;
+        assert!(lights.contains(&format!("const MAX_REACH_LIGHTS: u32 = {MAX_REACH_LIGHTS}u;")));
+        assert!(lights.contains("if light_count() > MAX_REACH_LIGHTS {"));
     }
 
     #[test]

@@ -223,6 +223,8 @@ impl Renderer {
             key.frame_copy,
             key.baked.as_deref(),
             key.bvh_stack,
+            // Without subgroups each invocation decides alone (lanes_none.wgsl): the same image.
+            key.waiting_direction_rays && self.gpu.device.features().contains(wgpu::Features::SUBGROUP),
         );
         let constants = shaders::pipeline_constants(&source, &key.constants());
         let (pipelines, layout) = bindings::create_pipelines(

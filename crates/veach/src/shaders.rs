@@ -11,7 +11,8 @@ use crate::gpu::bvh_nodes::BVH_STACK_SIZE;
 /// `TRAVERSAL` marks where the traversal goes: `traverse_bvh.wgsl`, or `traverse_baked.wgsl` with a
 /// small scene's triangles written in. `TEXTURES` marks where the texture module goes:
 /// `textures.wgsl` for scenes with textures (and the generic kernel), `textures_none.wgsl` (same
-/// functions, no bindings) otherwise.
+/// functions, no bindings) otherwise. `LANES` marks where the subgroup votes go: `lanes.wgsl` for
+/// kernels that use them on a device that has them, `lanes_none.wgsl` (same functions) otherwise.
 pub const SHADER_FILES: &[(&str, &str)] = &[
     ("layout.wgsl", include_str!("../../../shaders/layout.wgsl")),
     ("features.wgsl", include_str!("../../../shaders/features.wgsl")),
@@ -22,6 +23,7 @@ pub const SHADER_FILES: &[(&str, &str)] = &[
     ("traverse.wgsl", include_str!("../../../shaders/traverse.wgsl")),
     TRAVERSAL,
     TEXTURES,
+    LANES,
     ("bsdf.wgsl", include_str!("../../../shaders/bsdf.wgsl")),
     ("lights.wgsl", include_str!("../../../shaders/lights.wgsl")),
     ("mis.wgsl", include_str!("../../../shaders/mis.wgsl")),
@@ -36,6 +38,9 @@ const TRAVERSE_BAKED: (&str, &str) = ("traverse_baked.wgsl", include_str!("../..
 const TEXTURES: (&str, &str) = ("textures", "");
 const TEXTURES_ON: (&str, &str) = ("textures.wgsl", include_str!("../../../shaders/textures.wgsl"));
 const TEXTURES_OFF: (&str, &str) = ("textures_none.wgsl", include_str!("../../../shaders/textures_none.wgsl"));
+const LANES: (&str, &str) = ("lanes", "");
+const LANES_ON: (&str, &str) = ("lanes.wgsl", include_str!("../../../shaders/lanes.wgsl"));
+const LANES_OFF: (&str, &str) = ("lanes_none.wgsl", include_str!("../../../shaders/lanes_none.wgsl"));
 
 /// The test kernels, joined after the render kernel's files.
 pub const TEST_KERNELS: (&str, &str) = ("test_kernels.wgsl", include_str!("../../../shaders/test_kernels.wgsl"));
@@ -45,7 +50,7 @@ pub const TEST_ENTRY_POINT: &str = "run_test";
 /// `bvh_stack` entries) followed by the test kernels (see `gpu::test_kernel`).
 pub fn test_kernel_source(baked: Option<&BakedTriangles>, bvh_stack: u32) -> String {
     let (name, text) = TEST_KERNELS;
-    let render = render_kernel_source(true, UniformArrays::default(), false, baked, bvh_stack);
+    let render = render_kernel_source(true, UniformArrays::default(), false, baked, bvh_stack, false);
     format!("{render}// ---- shaders/{name} ----\n{}\n", shader_text(name, text))
 }
 
@@ -82,12 +87,15 @@ pub const WAVEFRONT_ENTRY_POINTS: [&str; 3] = ["render_light_pass", "prepare_dir
 /// `baked` triangles, rays test those instead of traversing the BVH (`KernelKey::baked`); without,
 /// the traversal's stack holds `bvh_stack` entries (`KernelKey::bvh_stack`). With `frame_copy`
 /// each entry point copies the frame's parameters into a private variable (`KernelKey::frame_copy`).
+/// With `lane_votes` the invocations of a subgroup vote with subgroup operations (lanes.wgsl),
+/// which the device must have (wgpu's `Features::SUBGROUP`).
 pub fn render_kernel_source(
     textures: bool,
     uniform: UniformArrays,
     frame_copy: bool,
     baked: Option<&BakedTriangles>,
     bvh_stack: u32,
+    lane_votes: bool,
 ) -> String {
     let mut source = String::new();
     for &file in SHADER_FILES {
@@ -96,6 +104,8 @@ pub fn render_kernel_source(
             TRAVERSAL => TRAVERSE_BVH,
             TEXTURES if textures => TEXTURES_ON,
             TEXTURES => TEXTURES_OFF,
+            LANES if lane_votes => LANES_ON,
+            LANES => LANES_OFF,
             other => other,
         };
         source.push_str(&format!("// ---- shaders/{name} ----\n"));
@@ -274,7 +284,7 @@ mod tests {
             split_declared_constants("override STRAIGHT_LINE_SAMPLE_X: bool;", &[("STRAIGHT_LINE_SAMPLE", 1.0)]);
         assert!(kept.is_empty());
         // The built-in shaders declare every constant a kernel is given.
-        let source = render_kernel_source(true, UniformArrays::default(), false, None, 64);
+        let source = render_kernel_source(true, UniformArrays::default(), false, None, 64, false);
         let (_, left_out) = split_declared_constants(&source, &crate::features::KernelKey::generic().constants());
         assert!(left_out.is_empty(), "{left_out:?}");
     }
@@ -309,7 +319,7 @@ mod tests {
             (false, small, true, None),
             (false, small, true, Some(&baked)),
         ] {
-            let source = render_kernel_source(textures, uniform, frame_copy, baked, BVH_STACK_SIZE);
+            let source = render_kernel_source(textures, uniform, frame_copy, baked, BVH_STACK_SIZE, false);
             if frame_copy {
                 assert!(source.contains("var<private> frame: FrameParams;") && source.contains("frame = frame_in;"));
                 // Every entry point fills the copy before anything reads it.
@@ -345,9 +355,9 @@ mod tests {
     #[test]
     fn a_deeper_trees_kernel_gets_a_larger_stack() {
         let declares = |n: u32| format!("{STACK_SIZE_DECLARATION}{n}u;");
-        let default = render_kernel_source(false, UniformArrays::default(), false, None, BVH_STACK_SIZE);
+        let default = render_kernel_source(false, UniformArrays::default(), false, None, BVH_STACK_SIZE, false);
         assert!(default.contains(&declares(BVH_STACK_SIZE)), "traverse_bvh.wgsl's stack is not BVH_STACK_SIZE");
-        let deeper = render_kernel_source(false, UniformArrays::default(), false, None, 160);
+        let deeper = render_kernel_source(false, UniformArrays::default(), false, None, 160, false);
         assert!(deeper.contains(&declares(160)) && !deeper.contains(&declares(BVH_STACK_SIZE)));
         validate_wgsl(&deeper).unwrap_or_else(|e| panic!("WGSL invalid:\n{e}"));
     }

@@ -89,6 +89,10 @@ pub struct FrameParams {
     pub emitter_max: [f32; 3],
     /// The image's height; `height` is the pixel buffers' (a tile's rows).
     pub image_height: u32,
+    /// 1: no camera sample's direction ray waits for a later sample's pass (`take_samples_waiting`
+    /// in integrator.wgsl): set where samples cut short are taken again.
+    pub finish_samples: u32,
+    pub _pad: [u32; 3],
 }
 
 #[repr(C)]
@@ -328,7 +332,8 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             emitter_min,
             tile_row,
             emitter_max,
-            image_height
+            image_height,
+            finish_samples
         }),
         layout!(BvhNode { origin, exponents, low, lights_01, high, lights_23, children }),
         layout!(Vertex { p, normal }),
