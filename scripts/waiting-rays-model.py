@@ -1,0 +1,58 @@
+#!/usr/bin/env python3
+"""How many direction-ray passes a SIMD group runs per camera sample, with and without direction
+rays that wait (shaders/integrator.wgsl, estimate_radiance_waiting; docs/performance.md,
+"Direction rays that wait for the lanes beside them").
+
+Each lane takes one camera sample after another (a run of RUN samples per invocation); each sample
+has a direction ray with probability p. Without waiting, a group runs a pass for a sample when any
+lane has a ray. With waiting, a lane holds one ray; a group runs a pass when some lane would hold
+a second or its run ends, and every lane with a ray traces it then (the waiting one first; the new
+one at once where the lane held none).
+
+    scripts/waiting-rays-model.py [--lanes 8] [--run 32] [--trials 4000]
+"""
+import argparse
+import random
+
+
+def passes_per_sample(p, lanes, run, trials, waiting, rng):
+    passes = 0
+    for _ in range(trials):
+        held = [False] * lanes
+        for k in range(run):
+            fresh = [rng.random() < p for _ in range(lanes)]
+            if not waiting:
+                passes += any(fresh)
+                continue
+            last = k == run - 1
+            if any((h and f) or (last and (h or f)) for h, f in zip(held, fresh)):
+                passes += 1
+                # Lanes that held one traced it and now hold the new one; a lane that held none
+                # traced its new one. At the run's end a lane with both takes a second pass.
+                if last and any(h and f for h, f in zip(held, fresh)):
+                    passes += 1
+                held = [h and f and not last for h, f in zip(held, fresh)]
+            else:
+                held = [h or f for h, f in zip(held, fresh)]
+    return passes / (trials * run)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--lanes", type=int, default=8)
+    ap.add_argument("--run", type=int, default=32)
+    ap.add_argument("--trials", type=int, default=4000)
+    ap.add_argument("--seed", type=int, default=1)
+    args = ap.parse_args()
+    rng = random.Random(args.seed)
+    print(f"{args.lanes} lanes, runs of {args.run} samples: passes per camera sample")
+    print("| p | each sample's ray at once | waiting |")
+    print("|---|---|---|")
+    for p in [0.01, 0.05, 0.1, 0.3, 0.5, 0.8]:
+        now = passes_per_sample(p, args.lanes, args.run, args.trials, False, rng)
+        wait = passes_per_sample(p, args.lanes, args.run, args.trials, True, rng)
+        print(f"| {p} | {now:.3f} | {wait:.3f} |")
+
+
+if __name__ == "__main__":
+    main()
