@@ -767,8 +767,8 @@ fn estimate_radiance(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<fu
 // groups (1 - 0.7^8) run that pass. Here a sample's direction ray may instead wait in its
 // invocation, beside its value so far, and be traced on a later sample's pass. A lane traces its
 // waiting ray when some lane of its group must trace (a second ray would wait, or its run of
-// samples begins or ends: any_lane, lanes.wgsl), so that lanes trace together: about 0.55 passes
-// per sample instead of 0.94 there. The samples are the same, and their values too, bit for bit;
+// samples ends: any_lane, lanes.wgsl), so that lanes trace together: about 0.54 passes per sample
+// instead of 0.94 there (scripts/waiting-rays-model.py). The samples are the same, and their values too, bit for bit;
 // only the order in which a pixel adds them up changes, and with it the sums' rounding
 // (docs/performance.md, "Direction rays that wait for the lanes beside them").
 

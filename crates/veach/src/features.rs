@@ -496,12 +496,15 @@ pub fn straight_line_sample(features: &SceneFeatures, settings: &RenderSettings,
 /// (no cone samples, control variate or contribution images), and was measured on Mesa 22's
 /// lavapipe alone (docs/performance.md, "Direction rays that wait for the lanes beside them";
 /// 256×256, 32 spp, against the loop):
-/// - `veach scale`'s grid, 1,000 and 10,000 lights (many direction rays): 0.85-0.90x;
-/// - the one-light grid and the Veach scene (few: 5.5% of camera samples on the Veach scene) 1.02-1.05x, so
-///   it is taken only past `MAX_REACH_LIGHTS` lights, where `emitter_reach` lets most direction
-///   rays through; the textured scene keeps the straight-line sample (1.19x).
+/// - `veach scale`'s grid, where 30% of camera samples have a direction ray: 10,000 lights
+///   0.89-0.92x, 1,000 lights 0.93-0.94x; 100 lights in one column, where few have one, 0.98-1.00x;
+/// - taken everywhere, the one-light grid 0.99-1.06x and the Veach scene (5.5% of its camera
+///   samples have one) 1.02x, so it is taken only past `MAX_REACH_LIGHTS` lights, where
+///   `emitter_reach` lets most direction rays through; the textured scene keeps the straight-line
+///   sample (the waiting kernel 1.19x its time).
 ///
-/// Other drivers keep the loop (not measured).
+/// A render of one sample per pass (the viewer's) gains nothing from it: each run is one sample,
+/// whose ray never waits. Other drivers keep the loop (not measured).
 pub fn waiting_direction_rays(features: &SceneFeatures, settings: &RenderSettings, auto: AutoExecution) -> bool {
     if auto != AutoExecution::WavefrontWhereMasked {
         return false;
