@@ -155,6 +155,17 @@ pub fn write_failure_images(test: &str, images: &[(&str, u32, u32, Vec<[f32; 3]>
     dir
 }
 
+/// Two images of per-pixel sums that should agree, and their difference (`write_failure_images`).
+pub fn write_compared_images(test: &str, a: &[[f32; 4]], b: &[[f32; 4]], width: u32) -> PathBuf {
+    let rgb = |img: &[[f32; 4]]| img.iter().map(|p| [p[0], p[1], p[2]]).collect::<Vec<_>>();
+    let diff = a.iter().zip(b).map(|(p, q)| [0, 1, 2].map(|c| (p[c] - q[c]).abs())).collect();
+    let height = a.len() as u32 / width;
+    write_failure_images(
+        test,
+        &[("first", width, height, rgb(a)), ("second", width, height, rgb(b)), ("difference", width, height, diff)],
+    )
+}
+
 /// Whether two kernels that do the same arithmetic from differently arranged code (specialised or
 /// generic, megakernel or wavefront) round it alike, bit for bit. A CPU adapter (lavapipe: LLVM)
 /// rounds each WGSL operation by itself wherever it is compiled. A GPU driver may fuse a multiply
@@ -185,13 +196,7 @@ pub fn assert_same_image(test: &str, what: &str, a: &[[f32; 4]], b: &[[f32; 4]],
         eprintln!("{what}: {differ} of {} pixels differ, {far} beyond 1e-4 (largest {worst:.2e})", a.len());
     }
     if !same {
-        let rgb = |img: &[[f32; 4]]| img.iter().map(|p| [p[0], p[1], p[2]]).collect::<Vec<_>>();
-        let diff = a.iter().zip(b).map(|(p, q)| [0, 1, 2].map(|c| (p[c] - q[c]).abs())).collect();
-        let height = a.len() as u32 / width;
-        let dir = write_failure_images(
-            test,
-            &[("first", width, height, rgb(a)), ("second", width, height, rgb(b)), ("difference", width, height, diff)],
-        );
+        let dir = write_compared_images(test, a, b, width);
         let rule = if exact { "bit for bit".to_string() } else { format!("at most {allowed_far} beyond 1e-4") };
         panic!(
             "{what}: images differ ({rule}): {differ} of {} pixels differ, {far} by more than 1e-4 relative \
@@ -286,13 +291,7 @@ pub fn assert_same_samples_reordered(
         }
     }
     if let Some((pixel, rel, bound)) = worst {
-        let rgb = |img: &[[f32; 4]]| img.iter().map(|p| [p[0], p[1], p[2]]).collect::<Vec<_>>();
-        let diff = a.iter().zip(b).map(|(p, q)| [0, 1, 2].map(|c| (p[c] - q[c]).abs())).collect();
-        let height = a.len() as u32 / width;
-        let dir = write_failure_images(
-            test,
-            &[("first", width, height, rgb(a)), ("second", width, height, rgb(b)), ("difference", width, height, diff)],
-        );
+        let dir = write_compared_images(test, a, b, width);
         panic!(
             "{what}: pixel {pixel} differs beyond reordered sums' rounding: {:?} against {:?} (relative {rel:.2e}, \
              allowed {bound:.2e}); images in {}",

@@ -576,6 +576,17 @@ mod tests {
         assert_eq!(at(&diffuse, Strategy::MisLobes, 1, 1, power), (false, true));
     }
 
+    /// A render's settings with lights chosen by power.
+    fn power_settings(strategy: Strategy, light_samples: u32, brdf_samples: u32) -> RenderSettings {
+        RenderSettings {
+            strategy,
+            light_samples,
+            brdf_samples,
+            light_selection: LightSelection::Power,
+            ..Default::default()
+        }
+    }
+
     /// Straight-line samples only where they were measured to pay: on Mesa 22's lavapipe, for
     /// light, uniform and brdf kernels with at most one direction sample, and MIS on textured
     /// scenes; `auto` then runs the megakernel there, and a wavefront asked for by name keeps its
@@ -587,13 +598,7 @@ mod tests {
         let plain = SceneFeatures { area_lights: true, any_glossy: true, ..SceneFeatures::default() };
         let textured = SceneFeatures { base_color_texture: true, ..plain };
         let round = SceneFeatures { round_lights: true, ..plain };
-        let s = |strategy, light_samples, brdf_samples| RenderSettings {
-            strategy,
-            light_samples,
-            brdf_samples,
-            light_selection: LightSelection::Power,
-            ..Default::default()
-        };
+        let s = power_settings;
         assert!(straight_line_sample(&plain, &s(Strategy::Light, 2, 0), masked));
         assert!(straight_line_sample(&plain, &s(Strategy::Uniform, 0, 1), masked));
         assert!(straight_line_sample(&plain, &s(Strategy::Brdf, 0, 1), masked));
@@ -629,13 +634,7 @@ mod tests {
         let masked = AutoExecution::WavefrontWhereMasked;
         let many = SceneFeatures { area_lights: true, any_glossy: true, many_lights: true, ..SceneFeatures::default() };
         let few = SceneFeatures { many_lights: false, ..many };
-        let s = |strategy, light_samples, brdf_samples| RenderSettings {
-            strategy,
-            light_samples,
-            brdf_samples,
-            light_selection: LightSelection::Power,
-            ..Default::default()
-        };
+        let s = power_settings;
         let mis = s(Strategy::Mis, 1, 1);
         assert!(waiting_direction_rays(&many, &mis, masked));
         assert!(waiting_direction_rays(&many, &s(Strategy::Mis, 8, 1), masked));
