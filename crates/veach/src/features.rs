@@ -415,8 +415,12 @@ pub enum AutoExecution {
     /// H200 again"), the megakernel for the other strategies, where the wavefront's rounds cost
     /// more (1.04-1.95x).
     WavefrontForMis,
-    /// Every other driver: the megakernel. Measured on Mesa 25's lavapipe, where the wavefront
-    /// took 1.01-1.38x the time in 11 of 12 cases (0.96x in one).
+    /// lavapipe from Mesa 23 on, which branches around code that no lane of a SIMD group runs: the
+    /// megakernel, as `Megakernel` (measured on Mesa 25, where the wavefront took 1.01-1.38x the
+    /// time in 11 of 12 cases, 0.96x in one), with direction rays that wait where those pay
+    /// (`waiting_direction_rays`).
+    MegakernelOnLavapipe,
+    /// Every other driver: the megakernel.
     Megakernel,
 }
 
@@ -431,11 +435,22 @@ impl AutoExecution {
             AutoExecution::WavefrontWhereMasked
         } else if driver == NVIDIA_DRIVER {
             AutoExecution::WavefrontForMis
+        } else if driver == LAVAPIPE_DRIVER && mesa_major(driver_info).is_some() {
+            AutoExecution::MegakernelOnLavapipe
         } else {
             AutoExecution::Megakernel
         }
     }
+
+    /// Whether the megakernel may let direction rays wait on this driver: lavapipe, of any Mesa
+    /// release, where it was measured (`waiting_direction_rays`; its SIMD groups are 8 lanes).
+    pub fn waits_direction_rays(self) -> bool {
+        matches!(self, AutoExecution::WavefrontWhereMasked | AutoExecution::MegakernelOnLavapipe)
+    }
 }
+
+/// wgpu's `AdapterInfo::driver` for Mesa's lavapipe.
+pub const LAVAPIPE_DRIVER: &str = "llvmpipe";
 
 /// wgpu's `AdapterInfo::driver` for NVIDIA's own driver, which `AutoExecution` and
 /// `GpuContext::render_workgroup` choose for (measured on an H200).
@@ -445,7 +460,7 @@ pub const NVIDIA_DRIVER: &str = "NVIDIA";
 /// takes it: lavapipe from Mesa 22 and older (wgpu's `AdapterInfo::driver` and `driver_info`).
 /// Mesa 25's branches around code that no lane of the 8 runs.
 pub fn runs_branches_masked(driver: &str, driver_info: &str) -> bool {
-    driver == "llvmpipe" && mesa_major(driver_info).is_some_and(|major| major <= 22)
+    driver == LAVAPIPE_DRIVER && mesa_major(driver_info).is_some_and(|major| major <= 22)
 }
 
 /// 22 from "Mesa 22.3.6 (LLVM 15.0.6)".
@@ -493,9 +508,10 @@ pub fn straight_line_sample(features: &SceneFeatures, settings: &RenderSettings,
 /// sample's pass (integrator.wgsl, `estimate_radiance_waiting`), where lanes that have a ray
 /// trace it together instead of each sample's ray on a pass that a SIMD group runs if any lane
 /// needs it. It applies to MIS with one BRDF sample and lights chosen independently of the point
-/// (no cone samples, control variate or contribution images), and was measured on Mesa 22's
-/// lavapipe alone (docs/performance.md, "Direction rays that wait for the lanes beside them";
-/// 256×256, 32 spp, against the loop):
+/// (no cone samples, control variate or contribution images), and was measured on lavapipe alone
+/// (docs/performance.md, "Direction rays that wait for the lanes beside them"; 256×256, 32 spp,
+/// against the loop). On Mesa 25 `veach scale`'s grid at 1,000 and 10,000 lights took
+/// 0.90-0.96x the time. On Mesa 22.3:
 /// - `veach scale`'s grid, where 30% of camera samples have a direction ray: 10,000 lights
 ///   0.89-0.92x, 1,000 lights 0.93-0.94x; 100 lights in one column, where few have one, 0.98-1.00x;
 /// - taken everywhere, the one-light grid 0.99-1.06x and the Veach scene (5.5% of its camera
@@ -503,10 +519,12 @@ pub fn straight_line_sample(features: &SceneFeatures, settings: &RenderSettings,
 ///   `emitter_reach` lets most direction rays through; the textured scene keeps the straight-line
 ///   sample (the waiting kernel 1.19x its time).
 ///
-/// A render of one sample per pass (the viewer's) gains nothing from it: each run is one sample,
-/// whose ray never waits. Other drivers keep the loop (not measured).
+/// Taken everywhere on Mesa 25, the Cornell box took 1.13x, the textured scene 1.05x and the
+/// one-light grid 1.05x the time, the Veach scene 0.96x. A render of one sample per pass (the
+/// viewer's) gains nothing from it: each run is one sample, whose ray never waits. Other drivers
+/// keep the loop (not measured).
 pub fn waiting_direction_rays(features: &SceneFeatures, settings: &RenderSettings, auto: AutoExecution) -> bool {
-    if auto != AutoExecution::WavefrontWhereMasked {
+    if !auto.waits_direction_rays() {
         return false;
     }
     let (strategy, _, m) = effective_strategy(features, settings);
@@ -525,7 +543,7 @@ pub fn uses_wavefront(features: &SceneFeatures, settings: &RenderSettings, auto:
     match settings.execution {
         Execution::Megakernel => false,
         Execution::Wavefront => true,
-        Execution::Auto if auto == AutoExecution::Megakernel => false,
+        Execution::Auto if matches!(auto, AutoExecution::Megakernel | AutoExecution::MegakernelOnLavapipe) => false,
         Execution::Auto if auto == AutoExecution::WavefrontForMis => {
             effective_strategy(features, settings).0 == Strategy::Mis
         }
@@ -608,7 +626,7 @@ mod tests {
         assert!(!straight_line_sample(&plain, &s(Strategy::MisLobes, 1, 1), masked));
         let cone = RenderSettings { light_sampling: LightSampling::Cone, ..s(Strategy::Light, 2, 0) };
         assert!(!straight_line_sample(&round, &cone, masked));
-        for other in [AutoExecution::Megakernel, AutoExecution::WavefrontForMis] {
+        for other in [AutoExecution::Megakernel, AutoExecution::MegakernelOnLavapipe, AutoExecution::WavefrontForMis] {
             assert!(!straight_line_sample(&textured, &s(Strategy::Light, 2, 0), other));
         }
         assert!(!uses_wavefront(&plain, &s(Strategy::Light, 2, 0), masked));
@@ -661,6 +679,7 @@ mod tests {
         ] {
             assert!(!waiting_direction_rays(&many, &unsupported, masked), "{unsupported:?}");
         }
+        assert!(waiting_direction_rays(&many, &mis, AutoExecution::MegakernelOnLavapipe));
         for other in [AutoExecution::Megakernel, AutoExecution::WavefrontForMis] {
             assert!(!waiting_direction_rays(&many, &mis, other));
         }
@@ -688,7 +707,7 @@ mod tests {
         );
         assert_eq!(
             AutoExecution::for_driver("llvmpipe", "Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6)"),
-            AutoExecution::Megakernel
+            AutoExecution::MegakernelOnLavapipe
         );
         assert_eq!(AutoExecution::for_driver("NVIDIA", "580.159.04"), AutoExecution::WavefrontForMis);
         assert_eq!(AutoExecution::for_driver("llvmpipe", ""), AutoExecution::Megakernel);
