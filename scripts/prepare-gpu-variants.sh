@@ -27,6 +27,10 @@ for branch in "${branches[@]}"; do
     fi
     mkdir -p ".gpu/shaders/$name"
     git archive "$branch" shaders | tar -x --strip-components=1 -C ".gpu/shaders/$name"
+    # Files main added since the branch (the subgroup votes), which its kernels never call: main's.
+    for f in shaders/*.wgsl; do
+        [ -e ".gpu/shaders/$name/$(basename "$f")" ] || cp "$f" ".gpu/shaders/$name/"
+    done
     echo ".gpu/shaders/$name from $branch"
 done
 # The wavefront's camera samples per round (LIGHT_PASS_RUN, 4 on the branch) at 1, 2 and 8.
