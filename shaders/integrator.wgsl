@@ -223,6 +223,15 @@ fn light_sample_requests(plan: SamplePlan) -> u32 {
     return select(plan.n, plan.n * light_count(), frame.light_selection == SELECT_EACH);
 }
 
+// The stream's dimension where a camera sample's light-sample requests begin, with the stream
+// moved past them: the light samples are taken after the direction samples (estimate_light), with
+// the numbers they would have taken first.
+fn reserve_light_requests(plan: SamplePlan, stream: ptr<function, SampleStream>) -> u32 {
+    let light_dim = (*stream).dim;
+    (*stream).dim += light_sample_requests(plan);
+    return light_dim;
+}
+
 // Light sample k of a plan: the light (the k / n-th with SELECT_EACH, else one chosen by the
 // frame's selection), the probability of choosing it, and the 2D sample left for the light itself.
 // One request of the stream.
@@ -649,8 +658,7 @@ fn estimate_radiance_straight(ray: Ray, stream: ptr<function, SampleStream>, ray
         e.emitted = emitted_radiance(c.s);
     }
     let plan = sample_plan(c);
-    let light_dim = (*stream).dim;
-    (*stream).dim += light_sample_requests(plan);
+    let light_dim = reserve_light_requests(plan, stream);
     if plan.m > 0u {
         // plan.m is 1: the sum of one sample is its mean.
         let next = next_direction_sample(c, plan, 0u, light_dim, stream, rays, &e);
@@ -706,8 +714,7 @@ fn estimate_radiance(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<fu
                 // would take here (the same image): the direction samples' passes then do not
                 // carry their code, which Mesa 22.3 runs under a mask where no lane takes it
                 // (10,000 lights, MIS 1 + 1: 0.93x; docs/performance.md).
-                light_dim = (*stream).dim;
-                (*stream).dim += light_sample_requests(plan);
+                light_dim = reserve_light_requests(plan, stream);
             } else if CONE_SAMPLING && d.light != NO_LIGHT {
                 cone_sum += cone_sample_value(d, s);
             } else {
@@ -834,8 +841,7 @@ fn estimate_radiance_waiting(ray: Ray, stream: ptr<function, SampleStream>, rays
                 if frame.hide_emitters == 0u {
                     e.emitted = emitted_radiance(s);
                 }
-                light_dim = (*stream).dim;
-                (*stream).dim += light_sample_requests(plan);
+                light_dim = reserve_light_requests(plan, stream);
                 if plan.m > 0u {
                     next = next_direction_sample(c, plan, 0u, light_dim, stream, rays, &e);
                 }
