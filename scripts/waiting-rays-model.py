@@ -7,12 +7,32 @@ Each lane takes one camera sample after another (a run of RUN samples per invoca
 has a direction ray with probability p. Without waiting, a group runs a pass for a sample when any
 lane has a ray. With waiting, a lane holds one ray; a group runs a pass when some lane would hold
 a second or its run ends, and every lane with a ray traces it then (the waiting one first; the new
-one at once where the lane held none).
+one at once where the lane held none). With shared slots (experiment/pooled-waiting), a new ray
+that finds its lane's slot taken moves to a free lane's slot; a group runs a pass only when the
+group's rays outnumber its lanes or a run ends, and then traces a full group of them.
 
     scripts/waiting-rays-model.py [--lanes 8] [--run 32] [--trials 4000]
 """
 import argparse
 import random
+
+
+def passes_with_shared_slots(p, lanes, run, trials, rng):
+    passes = 0
+    for _ in range(trials):
+        waiting = 0
+        for k in range(run):
+            fresh = sum(rng.random() < p for _ in range(lanes))
+            last = k == run - 1
+            if waiting + fresh > lanes or last:
+                # Fill the free slots and trace every lane's ray; at the run's end the rays left
+                # over take a second pass.
+                left = waiting + fresh - lanes
+                passes += 1 + (last and left > 0)
+                waiting = 0 if last else left
+            else:
+                waiting += fresh
+    return passes / (trials * run)
 
 
 def passes_per_sample(p, lanes, run, trials, waiting, rng):
@@ -46,12 +66,13 @@ def main():
     args = ap.parse_args()
     rng = random.Random(args.seed)
     print(f"{args.lanes} lanes, runs of {args.run} samples: passes per camera sample")
-    print("| p | each sample's ray at once | waiting |")
-    print("|---|---|---|")
+    print("| p | each sample's ray at once | waiting | shared slots |")
+    print("|---|---|---|---|")
     for p in [0.01, 0.05, 0.1, 0.3, 0.5, 0.8]:
         now = passes_per_sample(p, args.lanes, args.run, args.trials, False, rng)
         wait = passes_per_sample(p, args.lanes, args.run, args.trials, True, rng)
-        print(f"| {p} | {now:.3f} | {wait:.3f} |")
+        shared = passes_with_shared_slots(p, args.lanes, args.run, args.trials, rng)
+        print(f"| {p} | {now:.3f} | {wait:.3f} | {shared:.3f} |")
 
 
 if __name__ == "__main__":
