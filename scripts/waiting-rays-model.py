@@ -24,7 +24,7 @@ def passes_with_shared_slots(p, lanes, run, trials, rng):
         for k in range(run):
             fresh = sum(rng.random() < p for _ in range(lanes))
             last = k == run - 1
-            if waiting + fresh > lanes or last:
+            if waiting + fresh > lanes or (last and waiting + fresh > 0):
                 # Fill the free slots and trace every lane's ray; at the run's end the rays left
                 # over take a second pass.
                 left = waiting + fresh - lanes
