@@ -428,15 +428,11 @@ fn sample_direction(c: ShadingContext, stream: ptr<function, SampleStream>) -> D
     return density_sample(c, bs.wi, bs.pdf, false, strategy == STRATEGY_MIS);
 }
 
-// What a direction sample found at surface `e` (triangle `tri`): the emitted radiance times its
-// throughput, MIS-weighted against the light strategy's density for the same direction (zero
-// unless `e` is on a light; that density converts the light's area pdf to solid angle).
-fn direction_sample_value(c: ShadingContext, d: DirectionSample, plan: SamplePlan, tri: u32, e: SurfaceHit) -> vec3f {
-    return direction_value_at(c.s.p, d, plan, tri, e);
-}
-
-// The same, for a direction sample taken at shading point `p`.
-fn direction_value_at(p: vec3f, d: DirectionSample, plan: SamplePlan, tri: u32, e: SurfaceHit) -> vec3f {
+// What a direction sample taken at shading point `p` found at surface `e` (triangle `tri`): the
+// emitted radiance times its throughput, MIS-weighted against the light strategy's density for the
+// same direction (zero unless `e` is on a light; that density converts the light's area pdf to
+// solid angle).
+fn direction_sample_value(p: vec3f, d: DirectionSample, plan: SamplePlan, tri: u32, e: SurfaceHit) -> vec3f {
     let le = emitted_radiance(e);
     if all(le == vec3f(0.0)) {
         return vec3f(0.0);
@@ -464,7 +460,7 @@ fn direction_sample_to_emitters(c: ShadingContext, d: DirectionSample, plan: Sam
     if !hit.found {
         return vec3f(0.0);
     }
-    let value = direction_sample_value(c, d, plan, hit.tri, surface_at(hit, d.wi));
+    let value = direction_sample_value(c.s.p, d, plan, hit.tri, surface_at(hit, d.wi));
     if all(value == vec3f(0.0)) || trace_occluded(origin, d.wi, hit.t * (1.0 - 1.0e-4), 0u) {
         return vec3f(0.0);
     }
@@ -666,7 +662,7 @@ fn estimate_radiance_straight(ray: Ray, stream: ptr<function, SampleStream>, ray
             *rays += 1u;
             let found = trace_closest(next.origin, next.d.wi, next.t_max);
             if found.found {
-                e.brdf += direction_sample_value(c, next.d, plan, found.tri, surface_at(found, next.d.wi));
+                e.brdf += direction_sample_value(c.s.p, next.d, plan, found.tri, surface_at(found, next.d.wi));
             }
         }
     }
@@ -718,7 +714,7 @@ fn estimate_radiance(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<fu
             } else if CONE_SAMPLING && d.light != NO_LIGHT {
                 cone_sum += cone_sample_value(d, s);
             } else {
-                e.brdf += direction_sample_value(c, d, plan, hit.tri, s);
+                e.brdf += direction_sample_value(c.s.p, d, plan, hit.tri, s);
             }
         } else if at_camera {
             return e;
@@ -846,7 +842,7 @@ fn estimate_radiance_waiting(ray: Ray, stream: ptr<function, SampleStream>, rays
                     next = next_direction_sample(c, plan, 0u, light_dim, stream, rays, &e);
                 }
             } else {
-                let value = direction_value_at(at, d, plan, hit.tri, s);
+                let value = direction_sample_value(at, d, plan, hit.tri, s);
                 if this_pass == EARLIER_PASS {
                     out.earlier = value;
                 } else {

@@ -188,7 +188,7 @@ fn add_direction_sample(c: ShadingContext, plan: SamplePlan, k: u32, light_dim: 
         if CONE_SAMPLING && d.light != NO_LIGHT {
             (*sum).light += cone_sample_value(d, e);
         } else {
-            (*sum).brdf += direction_sample_value(c, d, plan, hit.tri, e);
+            (*sum).brdf += direction_sample_value(c.s.p, d, plan, hit.tri, e);
         }
     }
 }
