@@ -9,7 +9,10 @@ lane has a ray. With waiting, a lane holds one ray; a group runs a pass when som
 a second or its run ends, and every lane with a ray traces it then (the waiting one first; the new
 one at once where the lane held none). With shared slots (experiment/pooled-waiting), a new ray
 that finds its lane's slot taken moves to a free lane's slot; a group runs a pass only when the
-group's rays outnumber its lanes or a run ends, and then traces a full group of them.
+group's rays outnumber its lanes or a run ends, and then traces a full group of them. With two
+slots (experiment/two-slot-waiting), a lane holds up to two rays; a group runs a pass when some
+lane would hold a third or a run ends, and each lane traces one ray a pass, its older one first
+(at a run's end, every ray it holds).
 
     scripts/waiting-rays-model.py [--lanes 8] [--run 32] [--trials 4000]
 """
@@ -32,6 +35,25 @@ def passes_with_shared_slots(p, lanes, run, trials, rng):
                 waiting = 0 if last else left
             else:
                 waiting += fresh
+    return passes / (trials * run)
+
+
+def passes_with_two_slots(p, lanes, run, trials, rng):
+    passes = 0
+    for _ in range(trials):
+        held = [0] * lanes
+        for k in range(run):
+            fresh = [rng.random() < p for _ in range(lanes)]
+            if k == run - 1:
+                # The run's end: a lane traces everything it holds, one ray a pass.
+                passes += max(h + f for h, f in zip(held, fresh))
+            elif any(h == 2 and f for h, f in zip(held, fresh)):
+                passes += 1
+                # A lane that held some traced its oldest and now holds the new one too; a lane
+                # that held none traced its new one at once.
+                held = [h - 1 + f if h > 0 else 0 for h, f in zip(held, fresh)]
+            else:
+                held = [h + f for h, f in zip(held, fresh)]
     return passes / (trials * run)
 
 
@@ -66,13 +88,14 @@ def main():
     args = ap.parse_args()
     rng = random.Random(args.seed)
     print(f"{args.lanes} lanes, runs of {args.run} samples: passes per camera sample")
-    print("| p | each sample's ray at once | waiting | shared slots |")
-    print("|---|---|---|---|")
+    print("| p | each sample's ray at once | waiting | two slots a lane | shared slots |")
+    print("|---|---|---|---|---|")
     for p in [0.01, 0.05, 0.1, 0.3, 0.5, 0.8]:
         now = passes_per_sample(p, args.lanes, args.run, args.trials, False, rng)
         wait = passes_per_sample(p, args.lanes, args.run, args.trials, True, rng)
+        two = passes_with_two_slots(p, args.lanes, args.run, args.trials, rng)
         shared = passes_with_shared_slots(p, args.lanes, args.run, args.trials, rng)
-        print(f"| {p} | {now:.3f} | {wait:.3f} | {shared:.3f} |")
+        print(f"| {p} | {now:.3f} | {wait:.3f} | {two:.3f} | {shared:.3f} |")
 
 
 if __name__ == "__main__":
