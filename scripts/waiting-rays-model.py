@@ -38,7 +38,18 @@ def passes_with_shared_slots(p, lanes, run, trials, rng):
     return passes / (trials * run)
 
 
-def passes_with_two_slots(p, lanes, run, trials, rng):
+def passes_at_once(p, lanes, run, trials, rng):
+    """Passes per sample where each sample's ray is traced at once: one wherever a lane has one."""
+    passes = 0
+    for _ in range(trials):
+        for _ in range(run):
+            passes += any([rng.random() < p for _ in range(lanes)])
+    return passes / (trials * run)
+
+
+def passes_with_slots(p, lanes, run, trials, slots, rng):
+    """Passes per sample where each lane holds up to `slots` waiting rays (main's kernel: 1;
+    experiment/two-slot-waiting: 2)."""
     passes = 0
     for _ in range(trials):
         held = [0] * lanes
@@ -47,35 +58,13 @@ def passes_with_two_slots(p, lanes, run, trials, rng):
             if k == run - 1:
                 # The run's end: a lane traces everything it holds, one ray a pass.
                 passes += max(h + f for h, f in zip(held, fresh))
-            elif any(h == 2 and f for h, f in zip(held, fresh)):
+            elif any(h == slots and f for h, f in zip(held, fresh)):
                 passes += 1
                 # A lane that held some traced its oldest and now holds the new one too; a lane
                 # that held none traced its new one at once.
                 held = [h - 1 + f if h > 0 else 0 for h, f in zip(held, fresh)]
             else:
                 held = [h + f for h, f in zip(held, fresh)]
-    return passes / (trials * run)
-
-
-def passes_per_sample(p, lanes, run, trials, waiting, rng):
-    passes = 0
-    for _ in range(trials):
-        held = [False] * lanes
-        for k in range(run):
-            fresh = [rng.random() < p for _ in range(lanes)]
-            if not waiting:
-                passes += any(fresh)
-                continue
-            last = k == run - 1
-            if any((h and f) or (last and (h or f)) for h, f in zip(held, fresh)):
-                passes += 1
-                # Lanes that held one traced it and now hold the new one; a lane that held none
-                # traced its new one. At the run's end a lane with both takes a second pass.
-                if last and any(h and f for h, f in zip(held, fresh)):
-                    passes += 1
-                held = [h and f and not last for h, f in zip(held, fresh)]
-            else:
-                held = [h or f for h, f in zip(held, fresh)]
     return passes / (trials * run)
 
 
@@ -91,9 +80,9 @@ def main():
     print("| p | each sample's ray at once | waiting | two slots a lane | shared slots |")
     print("|---|---|---|---|---|")
     for p in [0.01, 0.05, 0.1, 0.3, 0.5, 0.8]:
-        now = passes_per_sample(p, args.lanes, args.run, args.trials, False, rng)
-        wait = passes_per_sample(p, args.lanes, args.run, args.trials, True, rng)
-        two = passes_with_two_slots(p, args.lanes, args.run, args.trials, rng)
+        now = passes_at_once(p, args.lanes, args.run, args.trials, rng)
+        wait = passes_with_slots(p, args.lanes, args.run, args.trials, 1, rng)
+        two = passes_with_slots(p, args.lanes, args.run, args.trials, 2, rng)
         shared = passes_with_shared_slots(p, args.lanes, args.run, args.trials, rng)
         print(f"| {p} | {now:.3f} | {wait:.3f} | {two:.3f} | {shared:.3f} |")
 
