@@ -64,6 +64,10 @@ override STRAIGHT_LINE_SAMPLE: bool = false;
 // group trace theirs together (integrator.wgsl, estimate_radiance_waiting;
 // KernelKey::waiting_direction_rays).
 override WAITING_DIRECTION_RAYS: bool = false;
+// With FOOTPRINT_SLOTS (traverse_baked.wgsl) and at most one direction sample: direction rays
+// wait in their invocation and are traced together after its camera samples
+// (integrator.wgsl, take_samples_deferred; KernelKey::deferred_direction_rays).
+override DEFERRED_DIRECTION_RAYS: bool = false;
 // Threads per workgroup of the kernels that take a pixel each, in columns and rows
 // (KernelKey::workgroup). Not a specialisation: a size the driver runs fastest.
 override RENDER_WORKGROUP_WIDTH: u32 = 8u;

@@ -83,6 +83,9 @@ fn emitted_radiance(s: SurfaceHit) -> vec3f {
 // A camera ray's closest hit: by the camera list's edge planes where the kernel has one
 // (CAMERA_LIST), else by the closest-hit traversal.
 fn trace_camera_ray(ray: Ray) -> Hit {
+    if FOOTPRINT_SLOTS > 0u {
+        return trace_camera_slots(ray.dir);
+    }
     if CAMERA_LIST {
         return trace_camera(ray.dir);
     }
@@ -680,6 +683,10 @@ fn estimate_radiance(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<fu
     if STRAIGHT_LINE_SAMPLE && AT_MOST_ONE_DIRECTION_SAMPLE && !CONE_SAMPLING {
         return estimate_radiance_straight(ray, stream, rays);
     }
+    // Camera rays by footprint lists have no closest-hit call site of their own (trace_camera_ray).
+    if FOOTPRINT_SLOTS > 0u && AT_MOST_ONE_DIRECTION_SAMPLE && !CONE_SAMPLING {
+        return estimate_radiance_straight(ray, stream, rays);
+    }
     var e = Estimate(vec3f(0.0), vec3f(0.0), vec3f(0.0));
     var c: ShadingContext;
     var plan = SamplePlan(0u, LIGHT_ALONE, 0u);
@@ -963,6 +970,129 @@ fn take_samples_waiting(px: BandPixel, start: u32, sum: ptr<function, vec4f>, su
     }
 }
 
+// estimate_radiance_straight with the direction sample's ray not traced but returned (held where
+// it needs one; `partial` is then the rest of the sample): take_samples_deferred traces it later.
+struct Deferring {
+    e: Estimate,
+    ray: WaitingSample,
+}
+
+fn estimate_radiance_deferring(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<function, u32>) -> Deferring {
+    var e = Estimate(vec3f(0.0), vec3f(0.0), vec3f(0.0));
+    var held = WaitingSample(vec3f(0.0), vec3f(0.0), vec3f(0.0), 0.0, vec3f(0.0), 0.0, vec3f(0.0), false, false);
+    *rays += 1u;
+    let hit = trace_camera_ray(ray);
+    if !hit.found {
+        return Deferring(e, held);
+    }
+    let c = shading_context(surface_at(hit, ray.dir), ray.dir);
+    if frame.hide_emitters == 0u {
+        e.emitted = emitted_radiance(c.s);
+    }
+    let plan = sample_plan(c);
+    let light_dim = reserve_light_requests(plan, stream);
+    if plan.m > 0u {
+        // plan.m is 1 (AT_MOST_ONE_DIRECTION_SAMPLE).
+        let next = next_direction_sample(c, plan, 0u, light_dim, stream, rays, &e);
+        held = WaitingSample(vec3f(0.0), c.s.p, next.origin, next.t_max, next.d.wi, next.d.pdf, next.d.throughput, next.d.mis, next.d.valid);
+    }
+    var light_stream = SampleStream((*stream).index, (*stream).seed, light_dim);
+    e.light = estimate_light(c, plan, &light_stream, rays);
+    held.partial = e.emitted + e.light + e.brdf;
+    return Deferring(e, held);
+}
+
+// Direction rays an invocation holds before it traces them (take_samples_deferred).
+const DEFERRED_SLOTS: u32 = 4u;
+
+// `render`'s samples of pixel `px` from sample `start`, for kernels with camera footprint lists
+// (FOOTPRINT_SLOTS) where a camera sample takes at most one direction sample: the camera samples
+// run without any closest-hit list (their camera rays test the pixel's slots), and each direction
+// sample that needs a ray waits in one of DEFERRED_SLOTS slots; once the run ends or a slot-full
+// lane stops it, a loop traces the held rays, one a pass, at the kernel's one closest-hit call
+// site. Mesa 22.3 runs every branch under a mask and a loop's first pass whatever the mask: there
+// the closest-hit list then runs once a run (plus a pass per ray beyond the first that some lane
+// holds) instead of once per camera sample. The same samples with the same values; the sums add
+// them in another order. Where Mesa 22's loop limit cuts a run short (loop_budget_held), the
+// samples since the slots were last empty are dropped and taken again later; with
+// frame.finish_samples every ray is traced right after its sample.
+fn take_samples_deferred(px: BandPixel, start: u32, sum: ptr<function, vec4f>, sum_sq: ptr<function, vec4f>, count: ptr<function, PixelCounters>) {
+    let plan = strategy_plan();
+    var capacity = DEFERRED_SLOTS;
+    if frame.finish_samples != 0u {
+        capacity = 1u;
+    }
+    var q0: WaitingSample;
+    var q1: WaitingSample;
+    var q2: WaitingSample;
+    var q3: WaitingSample;
+    var k = start;
+    loop {
+        let kept_sum = *sum;
+        let kept_sum_sq = *sum_sq;
+        let kept_count = *count;
+        let kept_from = k;
+        var held = 0u;
+        // Camera samples until the run's end or full slots; tested at the end (render says why).
+        loop {
+            var stream = pixel_sample_stream(px.index, k);
+            let ray = camera_ray(vec2u(px.x, px.y), sample_2d(&stream));
+            var rays = 0u;
+            let o = estimate_radiance_deferring(ray, &stream, &rays);
+            (*count).rays += rays;
+            if o.ray.held {
+                if held == 0u {
+                    q0 = o.ray;
+                } else if held == 1u {
+                    q1 = o.ray;
+                } else if held == 2u {
+                    q2 = o.ray;
+                } else {
+                    q3 = o.ray;
+                }
+                held += 1u;
+            } else {
+                add_to_sums(o.e.emitted + o.e.light + o.e.brdf, sum, sum_sq, count);
+            }
+            k++;
+            if k >= frame.sample_start + frame.sample_count || held >= capacity {
+                break;
+            }
+        }
+        // The held rays, the first slot's each pass; Mesa 22.3 runs the first pass in any case.
+        loop {
+            if held > 0u {
+                (*count).rays += 1u;
+                let hit = trace_closest(q0.origin, q0.wi, q0.t_max);
+                var value = vec3f(0.0);
+                if hit.found {
+                    let d = DirectionSample(q0.wi, q0.pdf, q0.throughput, q0.mis, true, NO_LIGHT);
+                    value = direction_sample_value(q0.p, d, plan, hit.tri, surface_at(hit, q0.wi));
+                }
+                add_to_sums(q0.partial + value, sum, sum_sq, count);
+                q0 = q1;
+                q1 = q2;
+                q2 = q3;
+                held -= 1u;
+            }
+            if held == 0u {
+                break;
+            }
+        }
+        if !loop_budget_held() {
+            *sum = kept_sum;
+            *sum_sq = kept_sum_sq;
+            (*count).rays = kept_count.rays;
+            (*count).nonfinite = kept_count.nonfinite;
+            (*count).truncated += k - kept_from;
+            break;
+        }
+        if k >= frame.sample_start + frame.sample_count {
+            break;
+        }
+    }
+}
+
 // The pixel a thread of a dispatch over a band of rows takes, and whether it lies in the image and
 // the band.
 struct BandPixel {
@@ -1039,7 +1169,10 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
     // read the end from `frame` each time: held in a variable, it made the Cornell box 1.10x
     // slower on Mesa 22.3 (not understood; measured twice, before this form).
     var k = u32(sum.w);
-    if WAITING_DIRECTION_RAYS && k < frame.sample_start + frame.sample_count {
+    load_camera_slots(pixel);
+    if DEFERRED_DIRECTION_RAYS && k < frame.sample_start + frame.sample_count {
+        take_samples_deferred(px, k, &sum, &sum_sq, &count);
+    } else if WAITING_DIRECTION_RAYS && k < frame.sample_start + frame.sample_count {
         take_samples_waiting(px, k, &sum, &sum_sq, &count);
     } else if k < frame.sample_start + frame.sample_count {
         loop {

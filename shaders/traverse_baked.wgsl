@@ -97,3 +97,73 @@ fn with_barycentrics(hit: Hit, origin: vec3f, sh: RayShear) -> Hit {
     let r = intersect_triangle(origin, sh, v.p0, v.p1, v.p2, RAY_INF);
     return Hit(hit.t, r.y, r.z, hit.tri, hit.found);
 }
+
+// Camera rays by their pixel's footprint list (crates/veach/src/gpu/camera_footprints.rs), in
+// kernels where FOOTPRINT_SLOTS (below, written by the host) is not zero: the few triangles a ray
+// through the pixel can meet first, of those trace_camera tests, in the same order and by the same
+// edge planes, so the same winner. Each invocation reads its pixel's list once (load_camera_slots)
+// into private slots that every camera sample's ray then tests: FOOTPRINT_SLOTS plane tests a
+// ray where trace_camera makes one per triangle. An empty slot (triangle 255) reads the table's
+// last entry, all zeros, which no ray meets (camera_candidate: t = volume / 0 is not below t).
+struct CameraSlot {
+    n0: vec3f,
+    n1: vec3f,
+    n2: vec3f,
+    volume: f32,
+    tri: u32,
+}
+
+// Indexed by constants only, so that the driver keeps them in registers.
+var<private> camera_slots: array<CameraSlot, 8>;
+
+{footprint declarations}
+
+fn camera_slot(tri: u32) -> CameraSlot {
+    let i = min(tri, FOOTPRINT_TRIANGLES) * 12u;
+    let a = vec4f(bitcast<f32>(footprint_word(i)), bitcast<f32>(footprint_word(i + 1u)), bitcast<f32>(footprint_word(i + 2u)), bitcast<f32>(footprint_word(i + 3u)));
+    let b = vec3f(bitcast<f32>(footprint_word(i + 4u)), bitcast<f32>(footprint_word(i + 5u)), bitcast<f32>(footprint_word(i + 6u)));
+    let c = vec3f(bitcast<f32>(footprint_word(i + 8u)), bitcast<f32>(footprint_word(i + 9u)), bitcast<f32>(footprint_word(i + 10u)));
+    return CameraSlot(a.xyz, b, c, a.w, tri);
+}
+
+// `pixel`: the pixel's index in the render's rows (the lists are built for them).
+fn load_camera_slots(pixel: u32) {
+    if FOOTPRINT_SLOTS == 0u {
+        return;
+    }
+    let base = FOOTPRINT_LISTS_OFFSET + pixel * FOOTPRINT_WORDS;
+    let w0 = footprint_word(base);
+    var w1 = 0xffffffffu;
+    if FOOTPRINT_WORDS > 1u {
+        w1 = footprint_word(base + 1u);
+    }
+    camera_slots[0] = camera_slot(w0 & 0xffu);
+    if FOOTPRINT_SLOTS > 1u { camera_slots[1] = camera_slot((w0 >> 8u) & 0xffu); }
+    if FOOTPRINT_SLOTS > 2u { camera_slots[2] = camera_slot((w0 >> 16u) & 0xffu); }
+    if FOOTPRINT_SLOTS > 3u { camera_slots[3] = camera_slot(w0 >> 24u); }
+    if FOOTPRINT_SLOTS > 4u { camera_slots[4] = camera_slot(w1 & 0xffu); }
+    if FOOTPRINT_SLOTS > 5u { camera_slots[5] = camera_slot((w1 >> 8u) & 0xffu); }
+    if FOOTPRINT_SLOTS > 6u { camera_slots[6] = camera_slot((w1 >> 16u) & 0xffu); }
+    if FOOTPRINT_SLOTS > 7u { camera_slots[7] = camera_slot(w1 >> 24u); }
+}
+
+fn slot_candidate(hit: ptr<function, Hit>, dir: vec3f, s: CameraSlot) {
+    camera_candidate(hit, dir, s.n0, s.n1, s.n2, s.volume, s.tri);
+}
+
+// trace_camera over the pixel's slots: the same winner, then the same watertight hit.
+fn trace_camera_slots(dir: vec3f) -> Hit {
+    let origin = frame.camera.origin;
+    var hit = Hit(RAY_INF, 0.0, 0.0, 0u, false);
+    slot_candidate(&hit, dir, camera_slots[0]);
+    if FOOTPRINT_SLOTS > 1u { slot_candidate(&hit, dir, camera_slots[1]); }
+    if FOOTPRINT_SLOTS > 2u { slot_candidate(&hit, dir, camera_slots[2]); }
+    if FOOTPRINT_SLOTS > 3u { slot_candidate(&hit, dir, camera_slots[3]); }
+    if FOOTPRINT_SLOTS > 4u { slot_candidate(&hit, dir, camera_slots[4]); }
+    if FOOTPRINT_SLOTS > 5u { slot_candidate(&hit, dir, camera_slots[5]); }
+    if FOOTPRINT_SLOTS > 6u { slot_candidate(&hit, dir, camera_slots[6]); }
+    if FOOTPRINT_SLOTS > 7u { slot_candidate(&hit, dir, camera_slots[7]); }
+    let v = triangle_corners(hit.tri);
+    let r = intersect_triangle_clamped(origin, ray_shear(dir), v.p0, v.p1, v.p2);
+    return Hit(select(hit.t, r.x, r.x > 0.0), r.y, r.z, hit.tri, hit.found);
+}

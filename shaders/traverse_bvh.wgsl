@@ -13,6 +13,13 @@ fn trace_camera(dir: vec3f) -> Hit {
     return Hit(RAY_INF, 0.0, 0.0, 0u, false);
 }
 
+// Nor footprint lists (traverse_baked.wgsl): FOOTPRINT_SLOTS is zero, and these are never called.
+const FOOTPRINT_SLOTS: u32 = 0u;
+fn load_camera_slots(pixel: u32) {}
+fn trace_camera_slots(dir: vec3f) -> Hit {
+    return Hit(RAY_INF, 0.0, 0.0, 0u, false);
+}
+
 const BVH_STACK_SIZE: u32 = 96u;
 
 // The traversal stack's entries below the top WINDOW (TraversalStack), shared by both traversals

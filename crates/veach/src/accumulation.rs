@@ -63,6 +63,8 @@ pub struct Accumulation {
     band_samples: u32,
     pixel_samples_done: u64,
     render_time: Duration,
+    /// The camera footprint lists' buffer, bound while the accumulation lives.
+    footprints: Option<wgpu::Buffer>,
     gpu_time: Duration,
     dispatches: u32,
 }
@@ -177,6 +179,7 @@ impl Accumulation {
         });
 
         let outputs = [&accum, &accum_sq, &counters, &aov_light, &aov_brdf];
+        let mut footprints: Option<(Duration, wgpu::Buffer)> = None;
         let mut key = KernelKey::for_render(&scene.features, settings, gpu.auto_execution());
         // Every kernel, generic or not, takes the stack its scene's BVH needs.
         key.bvh_stack = scene.bvh_stack();
@@ -197,6 +200,30 @@ impl Accumulation {
             // (Mesa 22.3 would run both; docs/performance.md, "Camera rays by edge planes").
             let at_eye = scene.baked.as_ref().is_some_and(|b| b.has_camera_eye(camera.position));
             key.camera_list = at_eye && (key.wavefront || gpu.auto_execution() != AutoExecution::WavefrontWhereMasked);
+            // In the megakernel on CPU adapters, camera rays test only their pixel's footprint
+            // list, and direction rays wait for the end of the invocation's run, so that its
+            // camera samples run no closest-hit list at all (docs/performance.md, "Camera rays
+            // by footprint lists").
+            if at_eye && !key.wavefront && gpu.is_cpu() && footprints_apply(&key, settings) {
+                let cam = camera.to_gpu(image.width, image.height);
+                let d = |v: [f32; 3]| glam::DVec3::from_array(v.map(f64::from));
+                let film = crate::gpu::camera_footprints::FilmFrame {
+                    eye: d(cam.origin),
+                    forward: d(cam.forward),
+                    right: d(cam.right),
+                    up: d(cam.up),
+                    width: image.width,
+                    height: image.height,
+                };
+                let baked = scene.baked.as_ref().expect("at the eye of a baked scene's camera list");
+                if let Some((lists, words)) = baked.camera_footprints(&film, rows.clone()) {
+                    key.footprint_slots = lists.slots as u32;
+                    key.deferred_direction_rays = key.strategy.is_some_and(|s| s != crate::settings::Strategy::Light);
+                    key.waiting_direction_rays = false;
+                    key.camera_list = false;
+                    footprints = Some((lists.build_time, storage_words(device, "camera footprints", &words)));
+                }
+            }
         }
         // The deferred samples of one dispatch: a band of rows, each pixel once, within the
         // binding size and the direction kernel's one-dimensional indirect dispatch.
@@ -210,7 +237,9 @@ impl Accumulation {
                 WavefrontQueue::new(renderer, &kernel, &params_buffer, scene, &outputs, deferred_capacity, w)?;
             (bind_group, Some(queue))
         } else {
-            (renderer.bind_group(&kernel, &params_buffer, scene, &outputs, &[]), None)
+            let extra: Vec<(u32, &wgpu::Buffer)> =
+                footprints.iter().map(|(_, b)| (bindings::CAMERA_FOOTPRINTS, b)).collect();
+            (renderer.bind_group(&kernel, &params_buffer, scene, &outputs, &extra), None)
         };
         let mut params = renderer.frame_params(scene, image, camera);
         (params.height, params.tile_row) = (h, rows.start);
@@ -240,12 +269,18 @@ impl Accumulation {
             render_time: Duration::ZERO,
             gpu_time: Duration::ZERO,
             dispatches: 0,
+            footprints: None,
         };
         if created {
             // An empty dispatch (no rows): drivers such as lavapipe compile the kernel here.
             acc.submit(0, 0, false, false)?;
             acc.kernel_creation = creation_start.elapsed();
         }
+        // Building the lists is part of the render: it depends on the camera and the image.
+        if let Some((build, _)) = &footprints {
+            acc.render_time += *build;
+        }
+        acc.footprints = footprints.map(|(_, b)| b);
         Ok(acc)
     }
 
@@ -490,6 +525,32 @@ impl Accumulation {
             interrupted: !self.is_complete(),
         })
     }
+}
+
+/// Fewer samples per pixel do not pay for the lists' building (about 5 ms for the Cornell box at
+/// 256×256 on 2 cores) and each run's pass of held rays: the peer comparison's Cornell box at 1,
+/// 2 and 4 spp took 1.4-2.4x the time with them, at 8 spp and up 0.8-0.9x (docs/performance.md).
+const FOOTPRINT_MIN_SPP: u32 = 8;
+
+/// Whether a render's kernel may take camera rays by footprint lists and defer its direction
+/// rays (take_samples_deferred): a strategy whose plan is the same at every point, at most one
+/// direction sample, no cone samples (their passes) and no contribution images (the deferred
+/// samples' sums leave them out).
+fn footprints_apply(key: &KernelKey, settings: &RenderSettings) -> bool {
+    settings.spp >= FOOTPRINT_MIN_SPP
+        && key.strategy.is_some_and(|s| s != crate::settings::Strategy::MisLobes)
+        && key.at_most_one_direction_sample
+        && !key.cone
+        && !settings.write_aovs
+}
+
+fn storage_words(device: &wgpu::Device, label: &str, words: &[u32]) -> wgpu::Buffer {
+    use wgpu::util::DeviceExt;
+    device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: Some(label),
+        contents: bytemuck::cast_slice(words),
+        usage: wgpu::BufferUsages::STORAGE,
+    })
 }
 
 #[cfg(test)]

@@ -206,6 +206,13 @@ pub struct KernelKey {
     /// Camera rays test `baked`'s edge planes through the eye (`BakedTriangles::set_camera_eye`):
     /// the render's camera is at that eye (`Accumulation` decides).
     pub camera_list: bool,
+    /// Camera rays test their pixel's footprint list of this many triangles (at most
+    /// `gpu::camera_footprints::FOOTPRINT_SLOTS_MAX`; 0: none), read once per invocation
+    /// (`Accumulation` decides, with `camera_list`'s eye, for the megakernel on CPU adapters).
+    pub footprint_slots: u32,
+    /// With `footprint_slots`: direction rays wait in their invocation and are traced after its
+    /// camera samples (integrator.wgsl, take_samples_deferred).
+    pub deferred_direction_rays: bool,
     /// The unshadowed diffuse light may be a control variate (`RenderSettings::control_variate`).
     pub control_variate: bool,
     /// A camera sample takes at most one light-sample request, or at most one direction sample
@@ -250,6 +257,8 @@ impl KernelKey {
             frame_copy: false,
             baked: None,
             camera_list: false,
+            footprint_slots: 0,
+            deferred_direction_rays: false,
             control_variate: true,
             at_most_one_light_request: false,
             at_most_one_direction_sample: false,
@@ -305,6 +314,8 @@ impl KernelKey {
             frame_copy: false,
             baked: None,
             camera_list: false,
+            footprint_slots: 0,
+            deferred_direction_rays: false,
             control_variate: settings.control_variate,
             at_most_one_light_request,
             at_most_one_direction_sample,
@@ -347,6 +358,7 @@ impl KernelKey {
             ("AT_MOST_ONE_DIRECTION_SAMPLE", flag(self.at_most_one_direction_sample)),
             ("STRAIGHT_LINE_SAMPLE", flag(self.straight_line_sample)),
             ("WAITING_DIRECTION_RAYS", flag(self.waiting_direction_rays)),
+            ("DEFERRED_DIRECTION_RAYS", flag(self.deferred_direction_rays)),
             ("RENDER_WORKGROUP_WIDTH", self.workgroup.0 as f64),
             ("RENDER_WORKGROUP_HEIGHT", self.workgroup.1 as f64),
         ];

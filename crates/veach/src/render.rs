@@ -216,8 +216,9 @@ impl Renderer {
             textures: key.textures,
             deferred: key.wavefront,
             test_io: false,
+            footprints: key.footprint_slots > 0,
         };
-        let source = shaders::render_kernel_source(
+        let source = shaders::render_kernel_source_with_footprints(
             key.textures,
             key.uniform,
             key.frame_copy,
@@ -225,6 +226,7 @@ impl Renderer {
             key.bvh_stack,
             // Without subgroups each invocation decides alone (lanes_none.wgsl): the same image.
             key.waiting_direction_rays && self.gpu.device.features().contains(wgpu::Features::SUBGROUP),
+            key.footprint_slots,
         );
         let constants = shaders::pipeline_constants(&source, &key.constants());
         let (pipelines, layout) = bindings::create_pipelines(

@@ -97,6 +97,20 @@ pub fn render_kernel_source(
     bvh_stack: u32,
     lane_votes: bool,
 ) -> String {
+    render_kernel_source_with_footprints(textures, uniform, frame_copy, baked, bvh_stack, lane_votes, 0)
+}
+
+/// `render_kernel_source`, with camera rays by footprint lists of `footprint_slots` triangles in a
+/// baked kernel (`KernelKey::footprint_slots`; 0: none).
+pub fn render_kernel_source_with_footprints(
+    textures: bool,
+    uniform: UniformArrays,
+    frame_copy: bool,
+    baked: Option<&BakedTriangles>,
+    bvh_stack: u32,
+    lane_votes: bool,
+    footprint_slots: u32,
+) -> String {
     let mut source = String::new();
     for &file in SHADER_FILES {
         let (name, text) = match file {
@@ -111,7 +125,7 @@ pub fn render_kernel_source(
         source.push_str(&format!("// ---- shaders/{name} ----\n"));
         let text = shader_text(name, text);
         match baked.filter(|_| file == TRAVERSAL) {
-            Some(triangles) => source.push_str(&bake_triangles(&text, triangles)),
+            Some(triangles) => source.push_str(&bake_triangles(&text, triangles, footprint_slots)),
             None => source.push_str(&text),
         }
         source.push('\n');
@@ -219,10 +233,14 @@ fn shader_text_in(dir: Option<&Path>, name: &str, built_in: &'static str) -> Cow
 /// BOX_TEST}` line once per triangle with edge planes through the camera's eye (n0, n1, n2 and
 /// volume, `BakedTriangles::set_camera_eye`); BOX_TEST (naming the box's corners lo and hi) guards each group of nearby triangles
 /// (`BakedTriangles::expand`).
-fn bake_triangles(template: &str, triangles: &BakedTriangles) -> String {
+fn bake_triangles(template: &str, triangles: &BakedTriangles, footprint_slots: u32) -> String {
     let mut out = String::new();
     for line in template.lines() {
         let trimmed = line.trim_start();
+        if trimmed == "{footprint declarations}" {
+            out.push_str(&footprint_declarations(triangles.len() as u32, footprint_slots));
+            continue;
+        }
         match trimmed.strip_prefix("{baked ").and_then(|rest| rest.strip_suffix('}')) {
             Some(statement) => {
                 let indent = &line[..line.len() - trimmed.len()];
@@ -244,6 +262,28 @@ fn bake_triangles(template: &str, triangles: &BakedTriangles) -> String {
         out.push('\n');
     }
     out
+}
+
+/// The constants and the binding of traverse_baked.wgsl's footprint lists (`gpu::camera_footprints`):
+/// the buffer holds each triangle's camera planes (12 words: n0 and the volume, n1, n2; then one
+/// entry of zeros), then each pixel's list, `FOOTPRINT_WORDS` words of four one-byte slots. With
+/// no slots the kernel has no binding and the reads are never made.
+fn footprint_declarations(triangles: u32, slots: u32) -> String {
+    let words = slots.div_ceil(4);
+    let read = if slots > 0 {
+        format!(
+            "@group(0) @binding({}) var<storage, read> camera_footprints: array<u32>;\n\
+             fn footprint_word(i: u32) -> u32 {{ return camera_footprints[i]; }}\n",
+            crate::gpu::bindings::CAMERA_FOOTPRINTS
+        )
+    } else {
+        "fn footprint_word(i: u32) -> u32 { return 0u; }\n".to_string()
+    };
+    format!(
+        "const FOOTPRINT_SLOTS: u32 = {slots}u;\nconst FOOTPRINT_WORDS: u32 = {words}u;\n\
+         const FOOTPRINT_TRIANGLES: u32 = {triangles}u;\nconst FOOTPRINT_LISTS_OFFSET: u32 = {}u;\n{read}",
+        12 * (triangles + 1)
+    )
 }
 
 /// Parses and validates WGSL with naga, returning a readable error that names the file and line.

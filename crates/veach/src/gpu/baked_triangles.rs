@@ -187,6 +187,38 @@ impl BakedTriangles {
         self.camera_eye == Some(position.to_array().map(f32::to_bits))
     }
 
+    /// The camera footprint lists (`gpu::camera_footprints`) of image rows `rows` seen by `film`
+    /// from the camera list's eye, behind the table of every triangle's camera planes, as the
+    /// kernel's buffer reads them (`shaders::footprint_declarations`); None without an eye or
+    /// where a pixel's list would not fit.
+    pub fn camera_footprints(
+        &self,
+        film: &crate::gpu::camera_footprints::FilmFrame,
+        rows: std::ops::Range<u32>,
+    ) -> Option<(crate::gpu::camera_footprints::CameraFootprints, Vec<u32>)> {
+        self.camera_eye?;
+        let corners: Vec<[glam::DVec3; 3]> = self
+            .corners
+            .iter()
+            .map(|c| c.map(|bits| glam::DVec3::from_array(bits.map(|b| f64::from(f32::from_bits(b))))))
+            .collect();
+        let lists = crate::gpu::camera_footprints::camera_footprints(&corners, film, rows)?;
+        let mut words = Vec::with_capacity(12 * (self.len() + 1) + lists.words.len());
+        for planes in &self.camera_planes {
+            match planes {
+                Some([n0, n1, n2, volume]) => {
+                    words.extend(n0.iter().chain([&volume[0]]));
+                    words.extend(n1.iter().chain([&0]));
+                    words.extend(n2.iter().chain([&0]));
+                }
+                None => words.extend([0; 12]),
+            }
+        }
+        words.extend([0; 12]);
+        words.extend(&lists.words);
+        Some((lists, words))
+    }
+
     /// Triangles that shadow rays test.
     pub fn blocker_count(&self) -> usize {
         self.blockers.iter().filter(|&&b| b).count()

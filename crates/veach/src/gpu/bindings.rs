@@ -28,6 +28,9 @@ pub const TEST_OUTPUT: u32 = 22;
 /// The scene's `triangle_lights` (read-only storage, or uniform: `UniformArrays::triangle_lights`),
 /// after the others.
 pub const TRIANGLE_LIGHTS: u32 = 23;
+/// Baked megakernels with camera footprint lists (`KernelKey::footprint_slots`): the lists
+/// (read-only storage).
+pub const CAMERA_FOOTPRINTS: u32 = 24;
 /// Storage buffers a render kernel binds (scene + outputs): a device must allow this many per stage.
 pub const STORAGE_BUFFERS_NEEDED: u32 = 1 + SCENE_COUNT + 1 + OUTPUT_COUNT + TEXTURES_COUNT;
 
@@ -56,11 +59,14 @@ pub struct ExtraBindings {
     pub deferred: bool,
     /// The test kernels' bindings (20..=22).
     pub test_io: bool,
+    /// The camera footprint lists (24).
+    pub footprints: bool,
 }
 
 /// Layout entries of a render or test kernel.
 pub fn layout_entries(extra: ExtraBindings) -> Vec<wgpu::BindGroupLayoutEntry> {
-    let ExtraBindings { uniform, textures: with_textures, deferred: with_deferred, test_io: with_test_io } = extra;
+    let ExtraBindings { uniform, textures: with_textures, deferred: with_deferred, test_io: with_test_io, footprints } =
+        extra;
     let mut entries = vec![storage(FRAME, true)];
     let uniform_lengths = uniform.lengths();
     entries.extend((SCENE_FIRST..SCENE_FIRST + SCENE_COUNT).map(|b| {
@@ -82,6 +88,9 @@ pub fn layout_entries(extra: ExtraBindings) -> Vec<wgpu::BindGroupLayoutEntry> {
         entries.push(storage(DEFERRED, false));
         entries.push(storage(DEFERRED_HEADER, false));
         entries.push(storage(DEFERRED_DISPATCH, false));
+    }
+    if footprints {
+        entries.push(storage(CAMERA_FOOTPRINTS, true));
     }
     if with_test_io {
         entries.push(entry(TEST_PARAMS, wgpu::BufferBindingType::Uniform));

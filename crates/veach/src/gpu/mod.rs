@@ -3,6 +3,7 @@
 pub mod baked_triangles;
 pub mod bindings;
 pub mod bvh_nodes;
+pub mod camera_footprints;
 pub mod context;
 pub mod layout;
 pub mod light_subtrees;

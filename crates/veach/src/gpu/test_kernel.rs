@@ -67,7 +67,13 @@ impl<'a> TestKernel<'a> {
             "veach test kernels",
             source,
             &[shaders::TEST_ENTRY_POINT],
-            bindings::ExtraBindings { uniform: Default::default(), textures: true, deferred: false, test_io: true },
+            bindings::ExtraBindings {
+                uniform: Default::default(),
+                textures: true,
+                deferred: false,
+                test_io: true,
+                footprints: false,
+            },
             &[],
         )
         .map_err(Error::Gpu)?;
