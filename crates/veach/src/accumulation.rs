@@ -63,8 +63,10 @@ pub struct Accumulation {
     band_samples: u32,
     pixel_samples_done: u64,
     render_time: Duration,
-    /// The camera footprint lists' buffer, bound while the accumulation lives.
+    /// The camera footprint lists' buffer, bound while the accumulation lives, and the time its
+    /// building took (part of `render_time`).
     footprints: Option<wgpu::Buffer>,
+    footprint_build: Duration,
     gpu_time: Duration,
     dispatches: u32,
 }
@@ -200,11 +202,14 @@ impl Accumulation {
             // (Mesa 22.3 would run both; docs/performance.md, "Camera rays by edge planes").
             let at_eye = scene.baked.as_ref().is_some_and(|b| b.has_camera_eye(camera.position));
             key.camera_list = at_eye && (key.wavefront || gpu.auto_execution() != AutoExecution::WavefrontWhereMasked);
-            // In the megakernel on CPU adapters, camera rays test only their pixel's footprint
-            // list, and direction rays wait for the end of the invocation's run, so that its
-            // camera samples run no closest-hit list at all (docs/performance.md, "Camera rays
-            // by footprint lists").
-            if at_eye && !key.wavefront && gpu.is_cpu() && footprints_apply(&key, settings) {
+            // In the megakernel where the driver runs every branch under a mask (Mesa 22.3),
+            // camera rays test only their pixel's footprint list, and direction rays wait for the
+            // end of the invocation's run, so that its camera samples run no closest-hit list at
+            // all (docs/performance.md, "Camera rays by footprint lists"; on Mesa 25, which
+            // branches, the camera list's loop stays faster: 1.05x the time with them).
+            let masked = gpu.auto_execution() == AutoExecution::WavefrontWhereMasked;
+            let long_list = scene.baked.as_ref().is_some_and(|b| b.len() >= FOOTPRINT_MIN_TRIANGLES);
+            if at_eye && !key.wavefront && masked && long_list && footprints_apply(&key, settings) {
                 let cam = camera.to_gpu(image.width, image.height);
                 let d = |v: [f32; 3]| glam::DVec3::from_array(v.map(f64::from));
                 let film = crate::gpu::camera_footprints::FilmFrame {
@@ -270,6 +275,7 @@ impl Accumulation {
             gpu_time: Duration::ZERO,
             dispatches: 0,
             footprints: None,
+            footprint_build: Duration::ZERO,
         };
         if created {
             // An empty dispatch (no rows): drivers such as lavapipe compile the kernel here.
@@ -279,6 +285,7 @@ impl Accumulation {
         // Building the lists is part of the render: it depends on the camera and the image.
         if let Some((build, _)) = &footprints {
             acc.render_time += *build;
+            acc.footprint_build = *build;
         }
         acc.footprints = footprints.map(|(_, b)| b);
         Ok(acc)
@@ -518,6 +525,7 @@ impl Accumulation {
             nonfinite_samples: counts.iter().map(|c| c.nonfinite as u64).sum(),
             truncated_samples: counts.iter().map(|c| c.truncated as u64).sum(),
             render_time: self.render_time,
+            footprint_build: self.footprint_build,
             gpu_time: self.timer.is_some().then_some(self.gpu_time),
             kernel: self.key.clone(),
             kernel_creation: self.kernel_creation,
@@ -531,6 +539,11 @@ impl Accumulation {
 /// 256×256 on 2 cores) and each run's pass of held rays: the peer comparison's Cornell box at 1,
 /// 2 and 4 spp took 1.4-2.4x the time with them, at 8 spp and up 0.8-0.9x (docs/performance.md).
 const FOOTPRINT_MIN_SPP: u32 = 8;
+
+/// Scenes of fewer baked triangles keep their closest-hit list for camera rays: it costs less
+/// than the lists' slots and the deferred rays' pass save (the textured scene's 8 triangles: 1.06x
+/// the time with them, the Cornell box's 36: 0.80x; docs/performance.md).
+const FOOTPRINT_MIN_TRIANGLES: usize = 16;
 
 /// Whether a render's kernel may take camera rays by footprint lists and defer its direction
 /// rays (take_samples_deferred): a strategy whose plan is the same at every point, at most one

@@ -208,7 +208,8 @@ pub struct KernelKey {
     pub camera_list: bool,
     /// Camera rays test their pixel's footprint list of this many triangles (at most
     /// `gpu::camera_footprints::FOOTPRINT_SLOTS_MAX`; 0: none), read once per invocation
-    /// (`Accumulation` decides, with `camera_list`'s eye, for the megakernel on CPU adapters).
+    /// (`Accumulation` decides, with `camera_list`'s eye, for the megakernel where the driver runs
+    /// every branch under a mask, Mesa 22.3's lavapipe).
     pub footprint_slots: u32,
     /// With `footprint_slots`: direction rays wait in their invocation and are traced after its
     /// camera samples (integrator.wgsl, take_samples_deferred).

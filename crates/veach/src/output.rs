@@ -43,8 +43,11 @@ pub struct RenderOutput {
     /// Camera samples that the driver's loop limit cut short, left out and taken again
     /// (Mesa 22's lavapipe; `Accumulation::take_left_out_samples`).
     pub truncated_samples: u64,
-    /// Wall-clock time of the dispatches: submit until the GPU is done.
+    /// Wall-clock time of the dispatches (submit until the GPU is done), plus the camera
+    /// footprint lists' building where the kernel reads them (`footprint_build`).
     pub render_time: Duration,
+    /// Time spent building the camera footprint lists (gpu/camera_footprints.rs), zero without.
+    pub footprint_build: Duration,
     /// The dispatches' time by GPU timestamps, where the adapter has timestamp queries.
     pub gpu_time: Option<Duration>,
     /// The kernel that rendered, and the time spent creating it for this render (zero when it
@@ -70,6 +73,7 @@ impl RenderOutput {
         self.nonfinite_samples += below.nonfinite_samples;
         self.truncated_samples += below.truncated_samples;
         self.render_time += below.render_time;
+        self.footprint_build += below.footprint_build;
         self.gpu_time = self.gpu_time.zip(below.gpu_time).map(|(a, b)| a + b);
         self.kernel_creation += below.kernel_creation;
         self.dispatches += below.dispatches;

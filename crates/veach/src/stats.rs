@@ -125,8 +125,10 @@ pub struct Timings {
     pub bvh_build: f64,
     pub upload: f64,
     pub pipeline_creation: f64,
-    /// Wall clock from submit to completion, summed over dispatches.
+    /// Wall clock from submit to completion, summed over dispatches, plus `camera_footprints`.
     pub render: f64,
+    /// Building the camera footprint lists, where the kernel reads them (0 otherwise).
+    pub camera_footprints: f64,
     /// Summed GPU timestamps of the dispatches (null where the adapter has no timestamps).
     pub render_gpu: Option<f64>,
 }
@@ -181,6 +183,7 @@ pub fn render_stats(
             upload: setup.upload.as_secs_f64(),
             pipeline_creation: out.kernel_creation.as_secs_f64(),
             render,
+            camera_footprints: out.footprint_build.as_secs_f64(),
             render_gpu: out.gpu_time.map(|t| t.as_secs_f64()),
         },
         samples_per_pixel: SamplesReport { requested: settings.spp, min: out.min_samples(), mean: out.mean_samples() },
