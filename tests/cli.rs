@@ -57,7 +57,7 @@ fn renders_exr_png_and_pfm_with_stats() {
         assert_eq!(s["samples_per_pixel"]["min"], 2);
         assert!(s["rays"].as_u64().unwrap() > 32 * 24 * 2);
         assert!(s["rays_per_second"].as_f64().unwrap() > 0.0);
-        for key in ["load", "bvh_build", "pipeline_creation", "render"] {
+        for key in ["load", "bvh_build", "pipeline_creation", "render", "camera_footprints"] {
             assert!(s["timings_seconds"][key].as_f64().is_some(), "missing timing {key}");
         }
         assert!(s["adapter"].as_str().is_some_and(|a| !a.is_empty()));
