@@ -123,19 +123,37 @@ impl WavefrontQueue {
 impl Accumulation {
     /// Allocates the image buffers and gets the kernel for `settings` (compiling it now if it
     /// is not cached; that time is `kernel_creation`, outside the render time).
+    /// For progressive renders (the viewer's), whose passes may take one sample per invocation:
+    /// their kernels keep the closest-hit list for camera rays (no footprint lists, which a pass
+    /// of one sample a run does not pay for: docs/performance.md, "Camera rays by footprint
+    /// lists").
     pub fn new(renderer: &Renderer, scene: &GpuScene, settings: &RenderSettings, camera: &Camera) -> Result<Self> {
-        Self::for_rows(renderer, scene, settings, camera, 0..settings.height)
+        Self::create(renderer, scene, settings, camera, 0..settings.height, false)
     }
 
     /// The image's rows `rows` alone (a tile, `Renderer::render`): buffers of that many rows, the
     /// same camera samples in them as the whole image's render takes (the kernels see image rows,
     /// `tile_row`). Its `settings()` and `read()` are the tile's: `height` is `rows.len()`.
+    /// Headless renders without a time limit take runs of several samples per invocation
+    /// (`Renderer::render` sets `set_band_samples`), which footprint lists may serve
+    /// (`footprints_apply`); with a time limit a pass over bands takes one.
     pub fn for_rows(
         renderer: &Renderer,
         scene: &GpuScene,
         image: &RenderSettings,
         camera: &Camera,
         rows: std::ops::Range<u32>,
+    ) -> Result<Self> {
+        Self::create(renderer, scene, image, camera, rows, image.time_limit.is_none())
+    }
+
+    fn create(
+        renderer: &Renderer,
+        scene: &GpuScene,
+        image: &RenderSettings,
+        camera: &Camera,
+        rows: std::ops::Range<u32>,
+        runs_of_samples: bool,
     ) -> Result<Self> {
         let gpu = renderer.gpu.clone();
         let device = &gpu.device;
@@ -209,7 +227,7 @@ impl Accumulation {
             // branches, the camera list's loop stays faster: 1.05x the time with them).
             let masked = gpu.auto_execution() == AutoExecution::WavefrontWhereMasked;
             let long_list = scene.baked.as_ref().is_some_and(|b| b.len() >= FOOTPRINT_MIN_TRIANGLES);
-            if at_eye && !key.wavefront && masked && long_list && footprints_apply(&key, settings) {
+            if runs_of_samples && at_eye && !key.wavefront && masked && long_list && footprints_apply(&key, settings) {
                 let cam = camera.to_gpu(image.width, image.height);
                 let d = |v: [f32; 3]| glam::DVec3::from_array(v.map(f64::from));
                 let film = crate::gpu::camera_footprints::FilmFrame {
