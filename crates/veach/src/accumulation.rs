@@ -239,7 +239,8 @@ impl Accumulation {
                     height: image.height,
                 };
                 let baked = scene.baked.as_ref().expect("at the eye of a baked scene's camera list");
-                if let Some((lists, words)) = baked.camera_footprints(&film, rows.clone()) {
+                let fits = |words: &Vec<u32>| (words.len() as u64 * 4) <= max_binding;
+                if let Some((lists, words)) = baked.camera_footprints(&film, rows.clone()).filter(|(_, w)| fits(w)) {
                     key.footprint_slots = lists.slots as u32;
                     key.deferred_direction_rays = key.strategy.is_some_and(|s| s != crate::settings::Strategy::Light);
                     key.waiting_direction_rays = false;
