@@ -639,38 +639,19 @@ fn next_direction_sample(c: ShadingContext, plan: SamplePlan, taken: u32, light_
 
 // estimate_radiance in straight-line code, for a kernel whose camera samples take at most one
 // direction sample and no cone passes (STRAIGHT_LINE_SAMPLE, features.wgsl): the camera ray, the
-// shading at its hit and the direction sample, then that sample's ray at a second closest-hit call
-// site, then the light samples. The same samples in the same order, so the same image. On Mesa
+// shading at its hit, the direction sample and the light samples (estimate_radiance_deferring),
+// then the direction sample's ray at a second closest-hit call site. The same samples, so the
+// same image. On Mesa
 // 22.3, which runs a loop's whole body on every pass, the loop's second pass runs the camera hit's
 // shading and the next sample's code again under a mask; here they run once, at the cost of a
 // second traversal that runs a step even where no lane has a ray (docs/performance.md, "Camera
 // samples in straight-line code").
 fn estimate_radiance_straight(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<function, u32>) -> Estimate {
-    var e = Estimate(vec3f(0.0), vec3f(0.0), vec3f(0.0));
-    *rays += 1u;
-    let hit = trace_camera_ray(ray);
-    if !hit.found {
-        return e;
+    let o = estimate_radiance_deferring(ray, stream, rays);
+    var e = o.e;
+    if o.ray.held {
+        e.brdf += held_ray_value(o.ray, rays);
     }
-    let c = shading_context(surface_at(hit, ray.dir), ray.dir);
-    if frame.hide_emitters == 0u {
-        e.emitted = emitted_radiance(c.s);
-    }
-    let plan = sample_plan(c);
-    let light_dim = reserve_light_requests(plan, stream);
-    if plan.m > 0u {
-        // plan.m is 1: the sum of one sample is its mean.
-        let next = next_direction_sample(c, plan, 0u, light_dim, stream, rays, &e);
-        if next.d.valid {
-            *rays += 1u;
-            let found = trace_closest(next.origin, next.d.wi, next.t_max);
-            if found.found {
-                e.brdf += direction_sample_value(c.s.p, next.d, plan, found.tri, surface_at(found, next.d.wi));
-            }
-        }
-    }
-    var light_stream = SampleStream((*stream).index, (*stream).seed, light_dim);
-    e.light = estimate_light(c, plan, &light_stream, rays);
     return e;
 }
 
@@ -680,11 +661,9 @@ fn estimate_radiance_straight(ray: Ray, stream: ptr<function, SampleStream>, ray
 // second call site, even one never reached, made the mis-lobes kernel 6-10% slower
 // (docs/performance.md). Where that pays, a kernel takes estimate_radiance_straight instead.
 fn estimate_radiance(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<function, u32>) -> Estimate {
-    if STRAIGHT_LINE_SAMPLE && AT_MOST_ONE_DIRECTION_SAMPLE && !CONE_SAMPLING {
-        return estimate_radiance_straight(ray, stream, rays);
-    }
-    // Camera rays by footprint lists have no closest-hit call site of their own (trace_camera_ray).
-    if FOOTPRINT_SLOTS > 0u && AT_MOST_ONE_DIRECTION_SAMPLE && !CONE_SAMPLING {
+    // Camera rays by footprint lists take the straight-line form too: they have no closest-hit
+    // call site of their own (trace_camera_ray).
+    if (STRAIGHT_LINE_SAMPLE || FOOTPRINT_SLOTS > 0u) && AT_MOST_ONE_DIRECTION_SAMPLE && !CONE_SAMPLING {
         return estimate_radiance_straight(ray, stream, rays);
     }
     var e = Estimate(vec3f(0.0), vec3f(0.0), vec3f(0.0));
@@ -970,8 +949,9 @@ fn take_samples_waiting(px: BandPixel, start: u32, sum: ptr<function, vec4f>, su
     }
 }
 
-// estimate_radiance_straight with the direction sample's ray not traced but returned (held where
-// it needs one; `partial` is then the rest of the sample): take_samples_deferred traces it later.
+// A camera sample in straight-line code up to its direction sample's ray, which it returns (held
+// where it needs one; `partial` is then the rest of the sample) instead of tracing it:
+// estimate_radiance_straight traces it right away, take_samples_deferred after the run.
 struct Deferring {
     e: Estimate,
     ray: WaitingSample,
@@ -1002,6 +982,19 @@ fn estimate_radiance_deferring(ray: Ray, stream: ptr<function, SampleStream>, ra
     return Deferring(e, held);
 }
 
+// What a held direction ray adds (the direction sample's MIS-weighted emission where it meets a
+// light), traced at this call's closest-hit call site. Strategies whose plan is the same at every
+// point only (not mis-lobes), as estimate_radiance_deferring's callers are.
+fn held_ray_value(w: WaitingSample, rays: ptr<function, u32>) -> vec3f {
+    *rays += 1u;
+    let hit = trace_closest(w.origin, w.wi, w.t_max);
+    if !hit.found {
+        return vec3f(0.0);
+    }
+    let d = DirectionSample(w.wi, w.pdf, w.throughput, w.mis, true, NO_LIGHT);
+    return direction_sample_value(w.p, d, strategy_plan(), hit.tri, surface_at(hit, w.wi));
+}
+
 // Direction rays an invocation holds before it traces them (take_samples_deferred).
 const DEFERRED_SLOTS: u32 = 4u;
 
@@ -1017,7 +1010,6 @@ const DEFERRED_SLOTS: u32 = 4u;
 // samples since the slots were last empty are dropped and taken again later; with
 // frame.finish_samples every ray is traced right after its sample.
 fn take_samples_deferred(px: BandPixel, start: u32, sum: ptr<function, vec4f>, sum_sq: ptr<function, vec4f>, count: ptr<function, PixelCounters>) {
-    let plan = strategy_plan();
     var capacity = DEFERRED_SLOTS;
     if frame.finish_samples != 0u {
         capacity = 1u;
@@ -1062,14 +1054,9 @@ fn take_samples_deferred(px: BandPixel, start: u32, sum: ptr<function, vec4f>, s
         // The held rays, the first slot's each pass; Mesa 22.3 runs the first pass in any case.
         loop {
             if held > 0u {
-                (*count).rays += 1u;
-                let hit = trace_closest(q0.origin, q0.wi, q0.t_max);
-                var value = vec3f(0.0);
-                if hit.found {
-                    let d = DirectionSample(q0.wi, q0.pdf, q0.throughput, q0.mis, true, NO_LIGHT);
-                    value = direction_sample_value(q0.p, d, plan, hit.tri, surface_at(hit, q0.wi));
-                }
-                add_to_sums(q0.partial + value, sum, sum_sq, count);
+                var rays = 0u;
+                add_to_sums(q0.partial + held_ray_value(q0, &rays), sum, sum_sq, count);
+                (*count).rays += rays;
                 q0 = q1;
                 q1 = q2;
                 q2 = q3;

@@ -229,15 +229,7 @@ impl Accumulation {
             let long_list = scene.baked.as_ref().is_some_and(|b| b.len() >= FOOTPRINT_MIN_TRIANGLES);
             if runs_of_samples && at_eye && !key.wavefront && masked && long_list && footprints_apply(&key, settings) {
                 let cam = camera.to_gpu(image.width, image.height);
-                let d = |v: [f32; 3]| glam::DVec3::from_array(v.map(f64::from));
-                let film = crate::gpu::camera_footprints::FilmFrame {
-                    eye: d(cam.origin),
-                    forward: d(cam.forward),
-                    right: d(cam.right),
-                    up: d(cam.up),
-                    width: image.width,
-                    height: image.height,
-                };
+                let film = crate::gpu::camera_footprints::FilmFrame::new(&cam, image.width, image.height);
                 let baked = scene.baked.as_ref().expect("at the eye of a baked scene's camera list");
                 let fits = |words: &Vec<u32>| (words.len() as u64 * 4) <= max_binding;
                 if let Some((lists, words)) = baked.camera_footprints(&film, rows.clone()).filter(|(_, w)| fits(w)) {

@@ -218,7 +218,7 @@ impl Renderer {
             test_io: false,
             footprints: key.footprint_slots > 0,
         };
-        let source = shaders::render_kernel_source_with_footprints(
+        let source = shaders::render_kernel_source(
             key.textures,
             key.uniform,
             key.frame_copy,

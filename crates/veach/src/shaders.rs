@@ -50,7 +50,7 @@ pub const TEST_ENTRY_POINT: &str = "run_test";
 /// `bvh_stack` entries) followed by the test kernels (see `gpu::test_kernel`).
 pub fn test_kernel_source(baked: Option<&BakedTriangles>, bvh_stack: u32) -> String {
     let (name, text) = TEST_KERNELS;
-    let render = render_kernel_source(true, UniformArrays::default(), false, baked, bvh_stack, false);
+    let render = render_kernel_source(true, UniformArrays::default(), false, baked, bvh_stack, false, 0);
     format!("{render}// ---- shaders/{name} ----\n{}\n", shader_text(name, text))
 }
 
@@ -88,21 +88,9 @@ pub const WAVEFRONT_ENTRY_POINTS: [&str; 3] = ["render_light_pass", "prepare_dir
 /// the traversal's stack holds `bvh_stack` entries (`KernelKey::bvh_stack`). With `frame_copy`
 /// each entry point copies the frame's parameters into a private variable (`KernelKey::frame_copy`).
 /// With `lane_votes` the invocations of a subgroup vote with subgroup operations (lanes.wgsl),
-/// which the device must have (wgpu's `Features::SUBGROUP`).
+/// which the device must have (wgpu's `Features::SUBGROUP`). A baked kernel's camera rays test
+/// footprint lists of `footprint_slots` triangles (`KernelKey::footprint_slots`; 0: none).
 pub fn render_kernel_source(
-    textures: bool,
-    uniform: UniformArrays,
-    frame_copy: bool,
-    baked: Option<&BakedTriangles>,
-    bvh_stack: u32,
-    lane_votes: bool,
-) -> String {
-    render_kernel_source_with_footprints(textures, uniform, frame_copy, baked, bvh_stack, lane_votes, 0)
-}
-
-/// `render_kernel_source`, with camera rays by footprint lists of `footprint_slots` triangles in a
-/// baked kernel (`KernelKey::footprint_slots`; 0: none).
-pub fn render_kernel_source_with_footprints(
     textures: bool,
     uniform: UniformArrays,
     frame_copy: bool,
@@ -324,7 +312,7 @@ mod tests {
             split_declared_constants("override STRAIGHT_LINE_SAMPLE_X: bool;", &[("STRAIGHT_LINE_SAMPLE", 1.0)]);
         assert!(kept.is_empty());
         // The built-in shaders declare every constant a kernel is given.
-        let source = render_kernel_source(true, UniformArrays::default(), false, None, 64, false);
+        let source = render_kernel_source(true, UniformArrays::default(), false, None, 64, false, 0);
         let (_, left_out) = split_declared_constants(&source, &crate::features::KernelKey::generic().constants());
         assert!(left_out.is_empty(), "{left_out:?}");
     }
@@ -359,7 +347,7 @@ mod tests {
             (false, small, true, None),
             (false, small, true, Some(&baked)),
         ] {
-            let source = render_kernel_source(textures, uniform, frame_copy, baked, BVH_STACK_SIZE, false);
+            let source = render_kernel_source(textures, uniform, frame_copy, baked, BVH_STACK_SIZE, false, 0);
             if frame_copy {
                 assert!(source.contains("var<private> frame: FrameParams;") && source.contains("frame = frame_in;"));
                 // Every entry point fills the copy before anything reads it.
@@ -395,9 +383,9 @@ mod tests {
     #[test]
     fn a_deeper_trees_kernel_gets_a_larger_stack() {
         let declares = |n: u32| format!("{STACK_SIZE_DECLARATION}{n}u;");
-        let default = render_kernel_source(false, UniformArrays::default(), false, None, BVH_STACK_SIZE, false);
+        let default = render_kernel_source(false, UniformArrays::default(), false, None, BVH_STACK_SIZE, false, 0);
         assert!(default.contains(&declares(BVH_STACK_SIZE)), "traverse_bvh.wgsl's stack is not BVH_STACK_SIZE");
-        let deeper = render_kernel_source(false, UniformArrays::default(), false, None, 160, false);
+        let deeper = render_kernel_source(false, UniformArrays::default(), false, None, 160, false, 0);
         assert!(deeper.contains(&declares(160)) && !deeper.contains(&declares(BVH_STACK_SIZE)));
         validate_wgsl(&deeper).unwrap_or_else(|e| panic!("WGSL invalid:\n{e}"));
     }

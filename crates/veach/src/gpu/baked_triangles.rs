@@ -308,27 +308,16 @@ impl BakedTriangles {
     }
 }
 
-/// For camera rays from `eye`, triangle p0 p1 p2's edge planes through the eye and its volume:
-/// with a = p0 - eye, b = p1 - eye, c = p2 - eye, the normals b × c, c × a, a × b (each ray's dot
-/// products with them are the weights of p0, p1, p2) and a · (b × c), computed in f64 from the f32
-/// corners, negated together where the volume is negative (so that inside means all three dot
-/// products >= 0 and t > 0), and scaled together by a power of two, which changes no ratio, to
-/// keep them in f32's range. [n0, n1, n2, [volume, 0, 0]] as f32 bits; None where the volume is
-/// zero or not finite (the eye in the triangle's plane, or a degenerate triangle: the watertight
-/// test finds no camera ray crossing it either). A shared edge's two planes are exact negatives
-/// of each other times a power of two: the products are the same, their difference is reversed,
-/// and negation and power-of-two scales round exactly.
+/// For camera rays from `eye`, triangle p0 p1 p2's edge planes through the eye and its volume
+/// (`camera_footprints::eye_planes`), computed in f64 from the f32 corners and scaled together by a
+/// power of two, which changes no ratio, to keep them in f32's range. [n0, n1, n2, [volume, 0, 0]]
+/// as f32 bits; None where there are none (the watertight test finds no camera ray crossing such a
+/// triangle either). A shared edge's two planes are exact negatives of each other times a power of
+/// two: the products are the same, their difference is reversed, and negation and power-of-two
+/// scales round exactly.
 fn camera_planes(eye: Vec3, corners: [[f32; 3]; 3]) -> Option<[[u32; 3]; 4]> {
-    let e = eye.as_dvec3();
-    let [a, b, c] = corners.map(|p| glam::DVec3::from_array(p.map(f64::from)) - e);
-    let (mut n0, mut n1, mut n2) = (b.cross(c), c.cross(a), a.cross(b));
-    let mut volume = a.dot(n0);
-    if volume == 0.0 || !volume.is_finite() {
-        return None;
-    }
-    if volume < 0.0 {
-        (n0, n1, n2, volume) = (-n0, -n1, -n2, -volume);
-    }
+    let corners = corners.map(|p| glam::DVec3::from_array(p.map(f64::from)));
+    let ([n0, n1, n2], volume) = crate::gpu::camera_footprints::eye_planes(eye.as_dvec3(), corners)?;
     let largest = [n0.abs().max_element(), n1.abs().max_element(), n2.abs().max_element(), volume]
         .into_iter()
         .fold(0.0, f64::max);

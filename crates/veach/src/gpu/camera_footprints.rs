@@ -60,11 +60,35 @@ pub struct FilmFrame {
 }
 
 impl FilmFrame {
+    /// The frame of `camera` as the kernels get it (`Camera::to_gpu` for the image's size).
+    pub fn new(camera: &crate::gpu::layout::Camera, width: u32, height: u32) -> FilmFrame {
+        let d = |v: [f32; 3]| DVec3::from_array(v.map(f64::from));
+        let (eye, forward, right, up) = (d(camera.origin), d(camera.forward), d(camera.right), d(camera.up));
+        FilmFrame { eye, forward, right, up, width, height }
+    }
+
     fn direction(&self, x: f64, y: f64) -> DVec3 {
         let sx = 2.0 * x / self.width as f64 - 1.0;
         let sy = 1.0 - 2.0 * y / self.height as f64;
         self.forward + sx * self.right + sy * self.up
     }
+}
+
+/// Triangle p0 p1 p2's edge planes through `eye` and its volume: with a = p0 - eye, b = p1 - eye,
+/// c = p2 - eye, the normals b × c, c × a, a × b (a ray's dot products with them are the weights
+/// of p0, p1, p2) and a · (b × c), negated together where the volume is negative, so that inside
+/// means all three dot products >= 0 and t > 0. None where the volume is zero or not finite (the
+/// eye in the triangle's plane, or a degenerate triangle). Shared with the camera list's
+/// constants (`gpu::baked_triangles`).
+pub(crate) fn eye_planes(eye: DVec3, corners: [DVec3; 3]) -> Option<([DVec3; 3], f64)> {
+    let [a, b, c] = corners.map(|p| p - eye);
+    let (n0, n1, n2) = (b.cross(c), c.cross(a), a.cross(b));
+    let volume = a.dot(n0);
+    if volume == 0.0 || !volume.is_finite() {
+        return None;
+    }
+    let sign = volume.signum();
+    Some(([n0 * sign, n1 * sign, n2 * sign], volume * sign))
 }
 
 /// A triangle seen from the eye: its edge planes through the eye (inward), the sum of their
@@ -80,17 +104,10 @@ struct EyeTriangle {
 
 impl EyeTriangle {
     fn new(eye: DVec3, corners: [DVec3; 3]) -> Option<EyeTriangle> {
-        let [a, b, c] = corners.map(|p| p - eye);
-        let (mut n0, mut n1, mut n2) = (b.cross(c), c.cross(a), a.cross(b));
-        let mut volume = a.dot(n0);
-        if volume == 0.0 || !volume.is_finite() {
-            return None;
-        }
-        if volume < 0.0 {
-            (n0, n1, n2, volume) = (-n0, -n1, -n2, -volume);
-        }
+        let (edges, volume) = eye_planes(eye, corners)?;
         let normal = (corners[1] - corners[0]).cross(corners[2] - corners[0]);
-        Some(EyeTriangle { edges: [n0, n1, n2], sum: n0 + n1 + n2, volume, normal, offset: normal.dot(corners[0]) })
+        let sum = edges[0] + edges[1] + edges[2];
+        Some(EyeTriangle { edges, sum, volume, normal, offset: normal.dot(corners[0]) })
     }
 
     /// Signed distance-like value of point p from the triangle's plane, and its margin.
@@ -457,16 +474,7 @@ mod tests {
     fn the_cornell_boxs_lists_hold_every_closest_hit() {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/cornell-box.gltf");
         let scene = crate::load_gltf(&path).expect("the shipped Cornell box");
-        let cam = scene.cameras[0].to_gpu(64, 48);
-        let d = |a: [f32; 3]| DVec3::from_array(a.map(f64::from));
-        let film = FilmFrame {
-            eye: d(cam.origin),
-            forward: d(cam.forward),
-            right: d(cam.right),
-            up: d(cam.up),
-            width: 64,
-            height: 48,
-        };
+        let film = FilmFrame::new(&scene.cameras[0].to_gpu(64, 48), 64, 48);
         let corners: Vec<[DVec3; 3]> = scene.triangles.iter().map(|t| t.p.map(|p| p.as_dvec3())).collect();
         let slots = check_lists(&corners, &film, 0..48, 32);
         let f = camera_footprints(&corners, &film, 0..48).expect("lists fit");
