@@ -63,9 +63,9 @@ pub struct Accumulation {
     band_samples: u32,
     pixel_samples_done: u64,
     render_time: Duration,
-    /// The camera footprint lists' buffer, bound while the accumulation lives, and the time its
-    /// building took (part of `render_time`).
-    footprints: Option<wgpu::Buffer>,
+    /// The camera footprint lists' buffer (held for the bind group that reads it), and the time
+    /// its building took (part of `render_time`).
+    _footprints: Option<wgpu::Buffer>,
     footprint_build: Duration,
     gpu_time: Duration,
     dispatches: u32,
@@ -257,6 +257,8 @@ impl Accumulation {
                 footprints.iter().map(|(_, b)| (bindings::CAMERA_FOOTPRINTS, b)).collect();
             (renderer.bind_group(&kernel, &params_buffer, scene, &outputs, &extra), None)
         };
+        // Building the lists is part of the render: it depends on the camera and the image.
+        let (footprints, footprint_build) = footprints.map_or((None, Duration::ZERO), |(t, b)| (Some(b), t));
         let mut params = renderer.frame_params(scene, image, camera);
         (params.height, params.tile_row) = (h, rows.start);
         let mut acc = Accumulation {
@@ -282,23 +284,17 @@ impl Accumulation {
             first_dispatch_rays: None,
             band_samples: 1,
             pixel_samples_done: 0,
-            render_time: Duration::ZERO,
+            render_time: footprint_build,
             gpu_time: Duration::ZERO,
             dispatches: 0,
-            footprints: None,
-            footprint_build: Duration::ZERO,
+            _footprints: footprints,
+            footprint_build,
         };
         if created {
             // An empty dispatch (no rows): drivers such as lavapipe compile the kernel here.
             acc.submit(0, 0, false, false)?;
             acc.kernel_creation = creation_start.elapsed();
         }
-        // Building the lists is part of the render: it depends on the camera and the image.
-        if let Some((build, _)) = &footprints {
-            acc.render_time += *build;
-            acc.footprint_build = *build;
-        }
-        acc.footprints = footprints.map(|(_, b)| b);
         Ok(acc)
     }
 
@@ -546,9 +542,9 @@ impl Accumulation {
     }
 }
 
-/// Fewer samples per pixel do not pay for the lists' building (about 5 ms for the Cornell box at
-/// 256×256 on 2 cores) and each run's pass of held rays: the peer comparison's Cornell box at 1,
-/// 2 and 4 spp took 1.4-2.4x the time with them, at 8 spp and up 0.8-0.9x (docs/performance.md).
+/// Fewer samples per pixel do not pay for the lists' building (1.2 ms for the Cornell box at
+/// 256×256 on 2 cores) and each run's pass of held rays: the Cornell box at 2 spp took 1.35x the
+/// time with them, at 4 spp 1.03x, at 8 spp and up 0.79-0.87x (docs/performance.md).
 const FOOTPRINT_MIN_SPP: u32 = 8;
 
 /// Scenes of fewer baked triangles keep their closest-hit list for camera rays: it costs less
