@@ -417,7 +417,7 @@ fn scale_writes_a_well_formed_csv() {
     assert_eq!(
         lines.next().unwrap(),
         "sweep,strategy,triangles,lights,load_s,bvh_build_s,bvh_nodes,gpu_scene_bytes,bytes_per_triangle,\
-         bvh_bytes_per_triangle,render_s,spp,rays,rays_per_s"
+         bvh_bytes_per_triangle,render_s,spp,rays,rays_per_s,ratio_to_first,ratio_min,ratio_max"
     );
     // The strategy column, then the rest without it: numbers after the sweep's name.
     let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
@@ -426,13 +426,19 @@ fn scale_writes_a_well_formed_csv() {
     let rows: Vec<Vec<&str>> = rows.into_iter().map(|r| [&r[..1], &r[2..]].concat()).collect();
     let num = |v: &str| -> f64 { v.parse().unwrap_or_else(|_| panic!("not a number: {v}")) };
     for r in &rows {
-        assert_eq!(r.len(), 13, "{r:?}");
+        assert_eq!(r.len(), 16, "{r:?}");
         for v in &r[1..] {
             assert!(num(v).is_finite() && num(v) >= 0.0, "{r:?}");
         }
         assert!(num(r[9]) > 0.0, "zero render time: {r:?}");
         // A camera ray per pixel at least (16 × 16, 1 spp).
         assert!(num(r[11]) >= 256.0, "too few rays: {r:?}");
+        // One repeat: its ratio is the median, the smallest and the largest.
+        assert!(num(r[13]) > 0.0 && num(r[13]) == num(r[14]) && num(r[13]) == num(r[15]), "{r:?}");
+    }
+    // Each sweep's first point, against itself.
+    for r in [&rows[0], &rows[2], &rows[3]] {
+        assert_eq!(num(r[13]), 1.0, "{r:?}");
     }
     // Triangle sweep: within 10% of the count asked for; one light (the Cornell box's).
     for (r, wanted) in rows[..2].iter().zip([1000.0, 4000.0]) {

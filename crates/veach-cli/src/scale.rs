@@ -13,7 +13,8 @@ total power that does not depend on K: the geometry is the same for every K. \
 Every point is written as glTF to DIR/scenes, loaded back, built and uploaded, rendered once untimed (the \
 kernel's compile), then --repeats times with MIS 1 + 1, lights chosen by power, each repeat rendering every \
 point of the sweep in turn, so that drift in the machine's speed moves every point alike; the median render time is \
-reported (GPU timestamps where the adapter has them, else wall clock). GPU bytes per triangle count every \
+reported (GPU timestamps where the adapter has them, else wall clock), and against the sweep's first point the \
+median of the repeats' ratios, with the smallest and largest (also in scale.csv). GPU bytes per triangle count every \
 buffer of the scene (BVH nodes, triangle positions and shading data, materials, lights).")]
 pub struct ScaleArgs {
     /// Output directory (generated scenes and scale.csv)
@@ -35,7 +36,8 @@ pub struct ScaleArgs {
     /// Camera samples per pixel of each render
     #[arg(long, default_value_t = 8)]
     spp: u32,
-    /// Timed renders per point (the median is reported)
+    /// Timed renders per point: the median is reported, and each point's ratio to the first as the
+    /// median of the repeats' ratios (the points render in turn, once per repeat)
     #[arg(long, default_value_t = 3)]
     repeats: u32,
     /// Use the adapter whose name contains this text (also VEACH_ADAPTER)
@@ -97,7 +99,7 @@ pub fn scale(args: ScaleArgs) -> Result<()> {
         ExecutionArg::Wavefront => ", the wavefront kernels",
     };
     println!(
-        "{}x{}, {} spp, MIS 1 + 1 (the light sweep also light sampling, 2 samples), lights by power{execution}, median of {} renders\n",
+        "{}x{}, {} spp, MIS 1 + 1 (the light sweep also light sampling, 2 samples), lights by power{execution}, median of {} renders;\n× first: the median of the renders' ratios to the sweep's first point, each rendered in the same turn (smallest–largest)\n",
         config.width, config.height, config.spp, config.repeats
     );
     println!("{}", scale_report(&rows));

@@ -46,6 +46,40 @@ pub struct ScaleRow {
     pub spp: u32,
     /// Rays traced by the kernel in one render: camera, shadow and BRDF rays.
     pub rays: u64,
+    /// Render time against the sweep's first point with the same strategy, repeat by repeat
+    /// (both rendered in the same turn of `time_points`): the median over the repeats, and the
+    /// smallest and largest.
+    pub ratio_to_first: RepeatRatio,
+}
+
+/// A ratio of render times taken repeat by repeat: its median, smallest and largest.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RepeatRatio {
+    pub median: f64,
+    pub min: f64,
+    pub max: f64,
+}
+
+impl RepeatRatio {
+    /// The ratios `times[r] / firsts[r]` over the repeats r both have (at least one).
+    pub fn of(times: &[f64], firsts: &[f64]) -> RepeatRatio {
+        let mut ratios: Vec<f64> = times.iter().zip(firsts).map(|(t, f)| t / f.max(f64::MIN_POSITIVE)).collect();
+        ratios.sort_by(f64::total_cmp);
+        RepeatRatio {
+            median: median_of_sorted(&ratios),
+            min: ratios.first().copied().unwrap_or(0.0),
+            max: ratios.last().copied().unwrap_or(0.0),
+        }
+    }
+}
+
+/// The median of ascending `v` (the mean of the middle two for an even count; 0 when empty).
+fn median_of_sorted(v: &[f64]) -> f64 {
+    match v.len() {
+        0 => 0.0,
+        n if n % 2 == 1 => v[n / 2],
+        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    }
 }
 
 impl ScaleRow {
@@ -153,8 +187,9 @@ fn time_points(renderer: &Renderer, config: &ScaleConfig, points: &mut [ScalePoi
     Ok(())
 }
 
-/// A point's rows, one per setting, with the median of its renders.
-fn point_rows(p: &ScalePoint) -> Vec<ScaleRow> {
+/// A point's rows, one per setting, with the median of its renders and its ratio to `first` (the
+/// sweep's first point), repeat by repeat.
+fn point_rows(p: &ScalePoint, first: &ScalePoint) -> Vec<ScaleRow> {
     let stats = &p.gpu_scene.stats;
     p.settings
         .iter()
@@ -162,6 +197,8 @@ fn point_rows(p: &ScalePoint) -> Vec<ScaleRow> {
         .map(|(k, (strategy, settings))| {
             let mut times = p.times[k].clone();
             times.sort_by(f64::total_cmp);
+            // Both points render the same strategies in the same order (`scale_strategies`).
+            let firsts = first.times.get(k).map_or(&p.times[k], |t| t);
             ScaleRow {
                 sweep: p.sweep,
                 strategy,
@@ -171,9 +208,10 @@ fn point_rows(p: &ScalePoint) -> Vec<ScaleRow> {
                 bvh_build_seconds: stats.bvh_build.as_secs_f64(),
                 bvh_nodes: stats.bvh_nodes,
                 gpu_scene_bytes: stats.gpu_scene_bytes,
-                render_seconds: times.get(times.len() / 2).copied().unwrap_or(0.0),
+                render_seconds: median_of_sorted(&times),
                 spp: settings.spp,
                 rays: p.rays[k],
+                ratio_to_first: RepeatRatio::of(&p.times[k], firsts),
             }
         })
         .collect()
@@ -195,7 +233,7 @@ pub fn run_scale(renderer: &Renderer, config: &ScaleConfig, progress: &mut dyn F
         }
         progress(&format!("{sweep}: {} renders of each point, in turn", config.repeats.max(1)));
         time_points(renderer, config, &mut points)?;
-        rows.extend(points.iter().flat_map(point_rows));
+        rows.extend(points.iter().flat_map(|p| point_rows(p, &points[0])));
     }
     Ok(rows)
 }
@@ -209,12 +247,12 @@ pub fn scale_steps(config: &ScaleConfig) -> usize {
 pub fn scale_csv(rows: &[ScaleRow]) -> String {
     let mut s = String::from(
         "sweep,strategy,triangles,lights,load_s,bvh_build_s,bvh_nodes,gpu_scene_bytes,bytes_per_triangle,\
-         bvh_bytes_per_triangle,render_s,spp,rays,rays_per_s\n",
+         bvh_bytes_per_triangle,render_s,spp,rays,rays_per_s,ratio_to_first,ratio_min,ratio_max\n",
     );
     for r in rows {
         let _ = writeln!(
             s,
-            "{},{},{},{},{:.6},{:.6},{},{},{:.2},{:.2},{:.6},{},{},{:.0}",
+            "{},{},{},{},{:.6},{:.6},{},{},{:.2},{:.2},{:.6},{},{},{:.0},{:.4},{:.4},{:.4}",
             r.sweep,
             r.strategy,
             r.triangles,
@@ -228,17 +266,29 @@ pub fn scale_csv(rows: &[ScaleRow]) -> String {
             r.render_seconds,
             r.spp,
             r.rays,
-            r.rays_per_second()
+            r.rays_per_second(),
+            r.ratio_to_first.median,
+            r.ratio_to_first.min,
+            r.ratio_to_first.max
         );
     }
     s
 }
 
-/// Markdown tables of both sweeps, each render time also relative to the sweep's first point.
+/// Markdown tables of both sweeps, each render time also against the sweep's first point: the
+/// median of the repeats' ratios, and their range where there are several repeats.
 pub fn scale_report(rows: &[ScaleRow]) -> String {
+    let ratio = |r: &ScaleRow| {
+        let q = r.ratio_to_first;
+        if q.min == q.max {
+            format!("{:.2}", q.median)
+        } else {
+            format!("{:.2} ({:.2}–{:.2})", q.median, q.min, q.max)
+        }
+    };
     let mut s = String::new();
     let tri: Vec<&ScaleRow> = rows.iter().filter(|r| r.sweep == "triangles").collect();
-    if let Some(first) = tri.first() {
+    if !tri.is_empty() {
         let _ = writeln!(
             s,
             "| triangles | load s | BVH build s | GPU bytes / triangle (BVH) | render s | × first | Mrays/s |"
@@ -247,14 +297,14 @@ pub fn scale_report(rows: &[ScaleRow]) -> String {
         for r in &tri {
             let _ = writeln!(
                 s,
-                "| {} | {:.3} | {:.3} | {:.0} ({:.0}) | {:.3} | {:.2} | {:.2} |",
+                "| {} | {:.3} | {:.3} | {:.0} ({:.0}) | {:.3} | {} | {:.2} |",
                 r.triangles,
                 r.load_seconds,
                 r.bvh_build_seconds,
                 r.bytes_per_triangle(),
                 r.bvh_bytes_per_triangle(),
                 r.render_seconds,
-                r.render_seconds / first.render_seconds.max(f64::MIN_POSITIVE),
+                ratio(r),
                 r.rays_per_second() / 1e6
             );
         }
@@ -264,20 +314,33 @@ pub fn scale_report(rows: &[ScaleRow]) -> String {
         let _ = writeln!(s, "\n| lights | triangles | strategy | render s | × first | rays | Mrays/s |");
         let _ = writeln!(s, "|---|---|---|---|---|---|---|");
         for r in &lights {
-            // Relative to the same strategy's first point.
-            let first = lights.iter().find(|f| f.strategy == r.strategy).unwrap_or(r);
             let _ = writeln!(
                 s,
-                "| {} | {} | {} | {:.3} | {:.2} | {} | {:.2} |",
+                "| {} | {} | {} | {:.3} | {} | {} | {:.2} |",
                 r.lights,
                 r.triangles,
                 r.strategy,
                 r.render_seconds,
-                r.render_seconds / first.render_seconds.max(f64::MIN_POSITIVE),
+                ratio(r),
                 r.rays,
                 r.rays_per_second() / 1e6
             );
         }
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn ratios_are_taken_repeat_by_repeat() {
+        // A machine twice as slow in the second repeat moves both points alike: every repeat's
+        // ratio is 1.5, where the medians of the two points' own times would give 3 / 2.
+        let q = RepeatRatio::of(&[3.0, 6.0, 3.3], &[2.0, 4.0, 2.0]);
+        assert_eq!(q, RepeatRatio { median: 1.5, min: 1.5, max: 1.65 });
+        assert_eq!(RepeatRatio::of(&[1.0, 2.0], &[1.0, 1.0]).median, 1.5);
+        assert_eq!(median_of_sorted(&[]), 0.0);
+    }
 }
