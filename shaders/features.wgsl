@@ -34,9 +34,11 @@ override PARALLELOGRAM_LIGHTS: bool = true;
 // Some area light sample picks a triangle by area (lights.wgsl, select_emitter_triangle); false
 // where PARALLELOGRAM_LIGHTS takes every area light.
 override TRIANGLE_PICKS: bool = true;
-// Baked kernels (traverse_baked.wgsl) where the driver branches around untaken code: a direction
-// sample finds what it meets among the emitters alone (trace_emitters), then a shadow ray tests
-// the segment to it (integrator.wgsl, direction_sample_to_emitters). False for BVH kernels.
+// Where the driver branches around untaken code, baked kernels (traverse_baked.wgsl, the emitters'
+// list) and BVH kernels whose scene has an emitters' grid that pays (traverse_bvh.wgsl,
+// KernelKey::emitter_grid): a direction sample finds what it meets among the emitters alone
+// (trace_emitters), then a shadow ray tests the segment to it (integrator.wgsl,
+// direction_sample_to_emitters).
 override EMITTER_LIST: bool = false;
 // Baked kernels for a render from the eye the camera list was built for (KernelKey::camera_list):
 // camera rays test the triangles by their edge planes through that eye (traverse_baked.wgsl,

@@ -456,7 +456,8 @@ fn direction_sample_value(p: vec3f, d: DirectionSample, plan: SamplePlan, tri: u
 // gives wherever no blocker lies within that margin: a segment from a surface to a light is what
 // the baked shadow rays' blockers were chosen for (BakedTriangles::mark_blockers). The list holds
 // a scene's few emitters and the shadow ray only its blockers, where the closest hit tests every
-// triangle.
+// triangle; in a BVH kernel the emitters' grid looks in the cells the ray crosses, where the
+// closest hit walks the tree's depth to find that a ray passes between small lights.
 fn direction_sample_to_emitters(c: ShadingContext, d: DirectionSample, plan: SamplePlan, origin: vec3f, t_max: f32, rays: ptr<function, u32>) -> vec3f {
     *rays += 1u;
     let hit = trace_emitters(origin, d.wi, t_max);

@@ -2,10 +2,87 @@
 // any-hit query (shadow rays), over traverse.wgsl's watertight ray/triangle test. Scenes of at
 // most 64 triangles on CPU adapters use traverse_baked.wgsl instead (BAKED_TRIANGLES_MAX).
 
-// BVH kernels find what direction samples meet with trace_closest: EMITTER_LIST (features.wgsl) is
-// false for them, and this is never called.
+// The emitters' grid (crates/veach/src/gpu/emitter_grid.rs), where the kernel has one
+// (KernelKey::emitter_grid; EMITTER_LIST, features.wgsl): shaders.rs replaces this line with the
+// grid's binding and a read of it. Without one, EMITTER_LIST is false and it is never read.
+fn emitter_grid_word(i: u32) -> u32 { return 0u; }
+
+fn emitter_grid_vec3f(i: u32) -> vec3f {
+    return vec3f(bitcast<f32>(emitter_grid_word(i)), bitcast<f32>(emitter_grid_word(i + 1u)), bitcast<f32>(emitter_grid_word(i + 2u)));
+}
+
+// Words before the cells' starts (emitter_grid::HEADER_WORDS): lo, res.x, hi, res.y, scale, res.z.
+const EMITTER_GRID_HEADER: u32 = 12u;
+
+// The nearest emitting triangle along origin + t * dir, t in (0, t_max), from the emitters' grid:
+// the cells the ray crosses in order (Amanatides & Woo 1987), each cell's triangles by the same
+// watertight test as trace_closest, until the nearest hit lies within the cell the walk is in.
+// A triangle is listed in every cell its box, grown by a margin far above the rounding of these
+// distances, overlaps (emitter_grid.rs), so a hit just past a boundary is in the cell before it too.
 fn trace_emitters(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
-    return Hit(t_max, 0.0, 0.0, 0u, false);
+    var hit = Hit(t_max, 0.0, 0.0, 0u, false);
+    let lo = emitter_grid_vec3f(0u);
+    let hi = emitter_grid_vec3f(4u);
+    let scale = emitter_grid_vec3f(8u);
+    let res = vec3i(vec3u(emitter_grid_word(3u), emitter_grid_word(7u), emitter_grid_word(11u)));
+    let inv_dir = safe_inverse(dir);
+    // The ray's part inside the grid's box (as intersect_aabb).
+    let t_lo = (lo - origin) * inv_dir;
+    let t_hi = (hi - origin) * inv_dir;
+    let t_enter = max(max(min(t_lo.x, t_hi.x), min(t_lo.y, t_hi.y)), max(min(t_lo.z, t_hi.z), 0.0));
+    let t_leave = min(min(max(t_lo.x, t_hi.x), max(t_lo.y, t_hi.y)), min(max(t_lo.z, t_hi.z), t_max)) * 1.0000004;
+    if !(t_enter <= t_leave) {
+        return hit;
+    }
+    let ahead = dir >= vec3f(0.0);
+    let step = select(vec3i(-1), vec3i(1), ahead);
+    var cell = clamp(vec3i(floor((origin + t_enter * dir - lo) * scale)), vec3i(0), res - vec3i(1));
+    // Where the ray crosses the cell's next boundary along each axis, and the distance between
+    // boundaries (safe_inverse keeps both finite where a component is zero, and far).
+    var t_next = (lo + vec3f(cell + select(vec3i(0), vec3i(1), ahead)) / scale - origin) * inv_dir;
+    let t_delta = abs(inv_dir / scale);
+    let cells_start = EMITTER_GRID_HEADER;
+    let entries_start = cells_start + u32(res.x * res.y * res.z) + 1u;
+    let sh = ray_shear(dir);
+    // Like every loop here, tested at the end of its body (integrator.wgsl's `render` says why).
+    loop {
+        let c = u32((cell.z * res.y + cell.y) * res.x + cell.x);
+        var i = emitter_grid_word(cells_start + c);
+        let end = emitter_grid_word(cells_start + c + 1u);
+        if i < end {
+            loop {
+                let tri = emitter_grid_word(entries_start + i);
+                let p = triangle_corners(tri);
+                let r = intersect_triangle(origin, sh, p.p0, p.p1, p.p2, hit.t);
+                if r.x > 0.0 {
+                    hit = Hit(r.x, r.y, r.z, tri, true);
+                }
+                i++;
+                if i >= end {
+                    break;
+                }
+            }
+        }
+        let t_cell_exit = min(t_next.x, min(t_next.y, t_next.z));
+        // The nearest hit (or t_max) lies within this cell, or the ray leaves the box here.
+        if hit.t <= t_cell_exit || t_cell_exit > t_leave {
+            break;
+        }
+        if t_next.x <= t_next.y && t_next.x <= t_next.z {
+            cell.x += step.x;
+            t_next.x += t_delta.x;
+        } else if t_next.y <= t_next.z {
+            cell.y += step.y;
+            t_next.y += t_delta.y;
+        } else {
+            cell.z += step.z;
+            t_next.z += t_delta.z;
+        }
+        if any(cell < vec3i(0)) || any(cell >= res) {
+            break;
+        }
+    }
+    return hit;
 }
 
 // Nor do they have a camera list: CAMERA_LIST is false for them, and this is never called.

@@ -212,8 +212,16 @@ impl Accumulation {
             key.uniform = scene.uniform;
             key.frame_copy = gpu.is_cpu();
             key.baked = scene.baked.clone();
-            // Where direction samples search the emitters' list, no ray of theirs is left to wait.
-            key.waiting_direction_rays &= !scene.baked.as_ref().is_some_and(|b| b.emitter_list());
+            // A BVH kernel's direction samples search the emitters' grid where the scene has one
+            // (`Renderer::upload_scene`: where the driver branches and the grid pays), and the
+            // device binds one more storage buffer (the wavefront's three and the grid).
+            let storage_buffers = device.limits().max_storage_buffers_per_shader_stage;
+            key.emitter_grid = key.baked.is_none()
+                && scene.emitter_grid.is_some()
+                && storage_buffers >= bindings::STORAGE_BUFFERS_NEEDED + 4;
+            // Where direction samples search the emitters' list or grid, no ray of theirs is left
+            // to wait.
+            key.waiting_direction_rays &= !key.emitter_grid && !scene.baked.as_ref().is_some_and(|b| b.emitter_list());
             // Camera rays by the edge planes through the eye where this camera is at it: in the
             // wavefront's first kernel, which then has no closest-hit list at all, and in the
             // megakernel where the driver branches around the list its camera pass leaves out

@@ -214,6 +214,11 @@ pub struct KernelKey {
     /// With `footprint_slots`: direction rays wait in their invocation and are traced after its
     /// camera samples (integrator.wgsl, take_samples_deferred).
     pub deferred_direction_rays: bool,
+    /// A BVH kernel's BRDF samples find emitters in the emitters' grid, then trace a shadow ray to
+    /// what they find (`gpu::emitter_grid`; `EMITTER_LIST`), instead of a closest hit over the
+    /// BVH (`Accumulation` decides: where the scene has a grid that pays and the driver branches
+    /// around code no lane runs).
+    pub emitter_grid: bool,
     /// The unshadowed diffuse light may be a control variate (`RenderSettings::control_variate`).
     pub control_variate: bool,
     /// A camera sample takes at most one light-sample request, or at most one direction sample
@@ -260,6 +265,7 @@ impl KernelKey {
             camera_list: false,
             footprint_slots: 0,
             deferred_direction_rays: false,
+            emitter_grid: false,
             control_variate: true,
             at_most_one_light_request: false,
             at_most_one_direction_sample: false,
@@ -317,6 +323,7 @@ impl KernelKey {
             camera_list: false,
             footprint_slots: 0,
             deferred_direction_rays: false,
+            emitter_grid: false,
             control_variate: settings.control_variate,
             at_most_one_light_request,
             at_most_one_direction_sample,
@@ -352,7 +359,7 @@ impl KernelKey {
             ("TRIANGLE_PICKS", flag(self.triangle_picks)),
             ("POINT_LIGHT_SELECTION", flag(self.point_selection)),
             ("SINGLE_LIGHT", flag(self.single_light)),
-            ("EMITTER_LIST", flag(self.baked.as_ref().is_some_and(|b| b.emitter_list()))),
+            ("EMITTER_LIST", flag(self.emitter_grid || self.baked.as_ref().is_some_and(|b| b.emitter_list()))),
             ("CAMERA_LIST", flag(self.camera_list)),
             ("CONTROL_VARIATE", flag(self.control_variate)),
             ("AT_MOST_ONE_LIGHT_REQUEST", flag(self.at_most_one_light_request)),

@@ -9,6 +9,7 @@ use crate::features::{KernelKey, SceneFeatures, UniformArrays, runs_branches_mas
 use crate::gpu::baked_triangles::BakedTriangles;
 use crate::gpu::bindings;
 use crate::gpu::context::GpuContext;
+use crate::gpu::emitter_grid::EmitterGrid;
 use crate::gpu::layout::{self, FrameParams};
 use crate::gpu::scene_buffers::{SceneArrays, build_scene_arrays};
 use crate::output::{Progress, RenderOutput};
@@ -54,6 +55,9 @@ pub struct GpuScene {
     pub(crate) bvh_stack_bound: u32,
     /// Triangles of area lights (`emitter_tris` before any padding).
     pub(crate) emitter_triangles: u32,
+    /// The emitters' grid, for BVH kernels where the driver branches around code no lane runs and
+    /// the grid pays (`gpu::emitter_grid`; `KernelKey::emitter_grid`).
+    pub(crate) emitter_grid: Option<wgpu::Buffer>,
     pub stats: SceneUploadStats,
     /// What the scene needs of the kernel.
     pub features: SceneFeatures,
@@ -87,6 +91,8 @@ impl GpuScene {
 /// `RenderOutput::kernel_creation`, outside the render time.
 pub(crate) struct Kernel {
     pub(crate) textures: bool,
+    /// It reads the emitters' grid (`KernelKey::emitter_grid`).
+    pub(crate) emitter_grid: bool,
     /// `render`, or the wavefront's first kernel (`render_light_pass`)...
     pub(crate) pipeline: wgpu::ComputePipeline,
     /// ...followed by `prepare_direction_pass` and `render_direction_pass`.
@@ -143,6 +149,9 @@ pub enum BvhMemory {
     /// whatever the driver (`BakedTriangles`): for tests, which Mesa 22.3 would otherwise run
     /// without them.
     AutoWithBoxes,
+    /// `Storage`, with the emitters' grid whatever the driver and wherever the scene has area
+    /// lights, paying or not (`gpu::emitter_grid`): for tests.
+    StorageWithEmitterGrid,
 }
 
 /// The largest uniform array: 64 KiB, the common `maxUniformBufferRange` (1024 BVH nodes, 4096
@@ -217,6 +226,7 @@ impl Renderer {
             deferred: key.wavefront,
             test_io: false,
             footprints: key.footprint_slots > 0,
+            emitter_grid: key.emitter_grid,
         };
         let source = shaders::render_kernel_source(
             key.textures,
@@ -228,6 +238,7 @@ impl Renderer {
             key.waiting_direction_rays && self.gpu.device.features().contains(wgpu::Features::SUBGROUP),
             key.footprint_slots,
         );
+        let source = if key.emitter_grid { shaders::with_emitter_grid(source) } else { source };
         let constants = shaders::pipeline_constants(&source, &key.constants());
         let (pipelines, layout) = bindings::create_pipelines(
             &self.gpu.device,
@@ -241,7 +252,8 @@ impl Renderer {
         let mut pipelines = pipelines.into_iter();
         let pipeline = pipelines.next().expect("one pipeline per entry point");
         let wavefront = pipelines.next().zip(pipelines.next());
-        let kernel = Arc::new(Kernel { textures: key.textures, pipeline, wavefront, layout });
+        let kernel =
+            Arc::new(Kernel { textures: key.textures, emitter_grid: key.emitter_grid, pipeline, wavefront, layout });
         self.kernels.lock().expect("kernel cache").insert(key.clone(), kernel.clone());
         Ok((kernel, true))
     }
@@ -261,7 +273,7 @@ impl Renderer {
     /// storage.
     fn uniform_capacity<T>(&self, memory: BvhMemory) -> usize {
         let cpu = self.gpu.is_cpu();
-        if memory == BvhMemory::Storage || !cpu {
+        if matches!(memory, BvhMemory::Storage | BvhMemory::StorageWithEmitterGrid) || !cpu {
             return 0;
         }
         let bytes = self.gpu.device.limits().max_uniform_buffer_binding_size.min(UNIFORM_ARRAY_MAX_BYTES);
@@ -315,6 +327,18 @@ impl Renderer {
             baked.set_camera_eye(scene.camera(None).ok().map(|c| c.position));
             Arc::new(baked)
         });
+        // BVH kernels' direction samples search the emitters' grid where the driver branches
+        // around code no lane runs and the grid pays: as baked kernels search their emitters'
+        // list, and not on Mesa 22.3 for the same reason (BakedTriangles::set_emitter_list; there
+        // it made both ends of `veach scale`'s light sweep slower). Only CPU adapters, where it was
+        // measured (docs/performance.md, "The emitters' grid"). Built before the arrays are
+        // padded for uniform buffers.
+        let forced_grid = memory == BvhMemory::StorageWithEmitterGrid;
+        let grid_pays_here = self.gpu.is_cpu() && !runs_branches_masked(&info.driver, &info.driver_info);
+        let emitter_grid = (baked.is_none() && (forced_grid || grid_pays_here))
+            .then(|| EmitterGrid::build(&arrays.vertices, &arrays.triangles, &arrays.triangle_lights))
+            .flatten()
+            .filter(|g| forced_grid || g.pays());
         let bvh_stack_bound = crate::gpu::bvh_nodes::stack_bound(&arrays.bvh_nodes);
         let emitter_triangles = arrays.emitter_tris.len() as u32;
         let uniform = UniformArrays {
@@ -369,7 +393,11 @@ impl Renderer {
                 storage_buffer(device, "texels", &t.texels),
             ]
         });
-        stats.gpu_scene_bytes = buffers.iter().chain(texture_buffers.iter().flatten()).map(|b| b.size()).sum();
+        let emitter_grid = emitter_grid
+            .filter(|g| (g.words.len() as u64 * 4) <= max_binding)
+            .map(|g| storage_buffer(device, "emitter grid", &g.words));
+        stats.gpu_scene_bytes =
+            buffers.iter().chain(texture_buffers.iter().flatten()).chain(emitter_grid.iter()).map(|b| b.size()).sum();
         stats.upload = upload_start.elapsed();
         Ok(GpuScene {
             buffers,
@@ -381,6 +409,7 @@ impl Renderer {
             emitter_box: arrays.emitter_box,
             bvh_stack_bound,
             emitter_triangles,
+            emitter_grid,
             stats,
             features,
         })
@@ -433,6 +462,10 @@ impl Renderer {
                 binding: bindings::TEXTURES_FIRST + i as u32,
                 resource: b.as_entire_binding(),
             });
+        }
+        if kernel.emitter_grid {
+            let grid = scene.emitter_grid.as_ref().expect("a kernel with the emitters' grid renders a scene with one");
+            entries.push(wgpu::BindGroupEntry { binding: bindings::EMITTER_GRID, resource: grid.as_entire_binding() });
         }
         for (binding, b) in extra {
             entries.push(wgpu::BindGroupEntry { binding: *binding, resource: b.as_entire_binding() });

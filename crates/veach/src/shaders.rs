@@ -274,6 +274,22 @@ fn footprint_declarations(triangles: u32, slots: u32) -> String {
     )
 }
 
+/// traverse_bvh.wgsl's read of the emitters' grid where the kernel has none.
+const EMITTER_GRID_READ: &str = "fn emitter_grid_word(i: u32) -> u32 { return 0u; }";
+
+/// A BVH kernel's source with the emitters' grid bound and read (`KernelKey::emitter_grid`).
+pub fn with_emitter_grid(source: String) -> String {
+    assert!(source.contains(EMITTER_GRID_READ), "traverse_bvh.wgsl reads the emitters' grid otherwise");
+    source.replace(
+        EMITTER_GRID_READ,
+        &format!(
+            "@group(0) @binding({}) var<storage, read> emitter_grid: array<u32>;\n\
+             fn emitter_grid_word(i: u32) -> u32 {{ return emitter_grid[i]; }}",
+            crate::gpu::bindings::EMITTER_GRID
+        ),
+    )
+}
+
 /// Parses and validates WGSL with naga, returning a readable error that names the file and line.
 pub fn validate_wgsl(source: &str) -> Result<naga::Module, String> {
     let module = naga::front::wgsl::parse_str(source).map_err(|e| e.emit_to_string(source))?;

@@ -31,6 +31,9 @@ pub const TRIANGLE_LIGHTS: u32 = 23;
 /// Baked megakernels with camera footprint lists (`KernelKey::footprint_slots`): the lists
 /// (read-only storage).
 pub const CAMERA_FOOTPRINTS: u32 = 24;
+/// BVH kernels with the emitters' grid (`KernelKey::emitter_grid`, `gpu::emitter_grid`): the grid
+/// (read-only storage).
+pub const EMITTER_GRID: u32 = 25;
 /// Storage buffers a render kernel binds (scene + outputs): a device must allow this many per stage.
 pub const STORAGE_BUFFERS_NEEDED: u32 = 1 + SCENE_COUNT + 1 + OUTPUT_COUNT + TEXTURES_COUNT;
 
@@ -61,12 +64,20 @@ pub struct ExtraBindings {
     pub test_io: bool,
     /// The camera footprint lists (24).
     pub footprints: bool,
+    /// The emitters' grid (25).
+    pub emitter_grid: bool,
 }
 
 /// Layout entries of a render or test kernel.
 pub fn layout_entries(extra: ExtraBindings) -> Vec<wgpu::BindGroupLayoutEntry> {
-    let ExtraBindings { uniform, textures: with_textures, deferred: with_deferred, test_io: with_test_io, footprints } =
-        extra;
+    let ExtraBindings {
+        uniform,
+        textures: with_textures,
+        deferred: with_deferred,
+        test_io: with_test_io,
+        footprints,
+        emitter_grid,
+    } = extra;
     let mut entries = vec![storage(FRAME, true)];
     let uniform_lengths = uniform.lengths();
     entries.extend((SCENE_FIRST..SCENE_FIRST + SCENE_COUNT).map(|b| {
@@ -91,6 +102,9 @@ pub fn layout_entries(extra: ExtraBindings) -> Vec<wgpu::BindGroupLayoutEntry> {
     }
     if footprints {
         entries.push(storage(CAMERA_FOOTPRINTS, true));
+    }
+    if emitter_grid {
+        entries.push(storage(EMITTER_GRID, true));
     }
     if with_test_io {
         entries.push(entry(TEST_PARAMS, wgpu::BufferBindingType::Uniform));

@@ -5,6 +5,7 @@ pub mod bindings;
 pub mod bvh_nodes;
 pub mod camera_footprints;
 pub mod context;
+pub mod emitter_grid;
 pub mod layout;
 pub mod light_subtrees;
 pub mod scene_buffers;

@@ -73,12 +73,16 @@ impl<'a> TestKernel<'a> {
                 deferred: false,
                 test_io: true,
                 footprints: false,
+                emitter_grid: false,
             },
             &[],
         )
         .map_err(Error::Gpu)?;
         let pipeline = pipelines.remove(0);
-        Ok(TestKernel { renderer, kernel: Kernel { textures: true, pipeline, wavefront: None, layout } })
+        Ok(TestKernel {
+            renderer,
+            kernel: Kernel { textures: true, emitter_grid: false, pipeline, wavefront: None, layout },
+        })
     }
 
     /// Runs `params.routine` over `params.count` items; returns `outputs_per_item` vec4s per item.
