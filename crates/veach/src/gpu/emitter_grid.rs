@@ -65,11 +65,16 @@ impl EmitterGrid {
         // Grown by the binning margin, so that the box holds every grown triangle box: a margin
         // far above f32 rounding of the positions and of the walk's distances (below).
         let extent = (hi - lo).as_dvec3();
-        let margin = 2e-4 * extent.max_element() + 4e-6 * lo.abs().max(hi.abs()).max_element() as f64;
+        // At least a tiny length, so that the box has a size and its cells a finite scale.
+        let margin = (2e-4 * extent.max_element() + 4e-6 * lo.abs().max(hi.abs()).max_element() as f64).max(1e-30);
         let (lo, hi) = (lo.as_dvec3() - margin, hi.as_dvec3() + margin);
         let res = resolution(hi - lo, emitters.len());
         let size = hi - lo;
         let scale = DVec3::from_array(res.map(f64::from)) / size;
+        // The kernel reads them as f32: lights near f32's limits get no grid.
+        if ![lo, hi, scale].iter().all(|v| v.as_vec3().is_finite()) {
+            return None;
+        }
         let cell_of = |p: DVec3| {
             let c = ((p - lo) * scale).floor();
             [0, 1, 2].map(|k| (c[k].max(0.0) as u32).min(res[k] - 1))
@@ -228,6 +233,19 @@ mod tests {
         assert!(grid.res.iter().all(|&r| (18..=22).contains(&r)), "{:?}", grid.res);
         assert!(grid.expected_cells > 15.0 && !grid.pays(), "{}", grid.expected_cells);
         assert!(EmitterGrid::build(&vertices, &triangles, &vec![NO_LIGHT; n as usize]).is_none());
+    }
+
+    #[test]
+    fn a_light_of_no_size_or_near_f32s_limits() {
+        // Every corner at the origin: a box of the smallest margin, one cell of finite scale.
+        let vertices = vec![vertex([0.0; 3]); 3];
+        let triangles = [IndexedTriangle { v0: 0, v1: 1, v2: 2, material: 0 }];
+        let grid = EmitterGrid::build(&vertices, &triangles, &[0]).unwrap();
+        assert_eq!(grid.res, [1, 1, 1]);
+        assert!(grid.words[..HEADER_WORDS].iter().all(|&w| f32::from_bits(w).is_finite()));
+        // A light reaching f32::MAX: its grown box is not an f32 box.
+        let far = [vertex([f32::MAX, 0.0, 0.0]), vertex([0.0, 1.0, 0.0]), vertex([0.0, 0.0, 1.0])];
+        assert!(EmitterGrid::build(&far, &triangles, &[0]).is_none());
     }
 
     #[test]
