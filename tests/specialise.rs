@@ -124,6 +124,22 @@ fn specialised_kernels_render_the_generic_kernels_image() {
     assert_eq!(straight_line > 0, masked, "{straight_line} straight-line kernels compared");
 }
 
+/// `veach scale`'s grid of 64 lights over a glossy gold floor just above its matte one, written as
+/// `file`.
+fn glossy_light_grid(file: &str) -> veach::Scene {
+    let mut glossy = veach::assets::scale::light_scene(64, 64);
+    let gold = glossy.material(&MaterialDesc::metal("gold", Vec3::new(0.9, 0.7, 0.3), 0.3));
+    let floor = MeshData::quad(
+        Vec3::new(-2.0, 0.01, -2.0),
+        Vec3::new(2.0, 0.01, -2.0),
+        Vec3::new(2.0, 0.01, 2.0),
+        Vec3::new(-2.0, 0.01, 2.0),
+        Vec3::Y,
+    );
+    glossy.add_mesh("gold floor", &floor, gold, Mat4::IDENTITY);
+    load(&glossy, file)
+}
+
 /// Kernels whose direction rays wait for a later camera sample's pass (integrator.wgsl,
 /// estimate_radiance_waiting; KernelKey::waiting_direction_rays) take the same samples as the
 /// generic kernel's loop, with the same values, and only add them up in another order: the same
@@ -139,17 +155,7 @@ fn kernels_whose_direction_rays_wait_render_the_loops_image() {
     let mut grids = Vec::new();
     let matte = veach::assets::scale::light_scene(64, 64);
     grids.push(("grid", load(&matte, "waiting-grid")));
-    let mut glossy = veach::assets::scale::light_scene(64, 64);
-    let gold = glossy.material(&MaterialDesc::metal("gold", Vec3::new(0.9, 0.7, 0.3), 0.3));
-    let floor = MeshData::quad(
-        Vec3::new(-2.0, 0.01, -2.0),
-        Vec3::new(2.0, 0.01, -2.0),
-        Vec3::new(2.0, 0.01, 2.0),
-        Vec3::new(-2.0, 0.01, 2.0),
-        Vec3::Y,
-    );
-    glossy.add_mesh("gold floor", &floor, gold, Mat4::IDENTITY);
-    grids.push(("glossy grid", load(&glossy, "waiting-glossy-grid")));
+    grids.push(("glossy grid", glossy_light_grid("waiting-glossy-grid")));
     let (mut waited, mut gridded) = (0, 0);
     for (name, scene) in grids {
         let camera = scene.camera(None).unwrap();
@@ -227,17 +233,7 @@ fn kernels_with_the_emitters_grid_render_the_generic_kernels_image() {
         ("veach-mis", shipped_scene("veach-mis")),
         ("cornell sphere", load(&veach::assets::scale::triangle_scene(400), "emitter-grid-sphere")),
     ];
-    let mut glossy = veach::assets::scale::light_scene(64, 64);
-    let gold = glossy.material(&MaterialDesc::metal("gold", Vec3::new(0.9, 0.7, 0.3), 0.3));
-    let floor = MeshData::quad(
-        Vec3::new(-2.0, 0.01, -2.0),
-        Vec3::new(2.0, 0.01, -2.0),
-        Vec3::new(2.0, 0.01, 2.0),
-        Vec3::new(-2.0, 0.01, 2.0),
-        Vec3::Y,
-    );
-    glossy.add_mesh("gold floor", &floor, gold, Mat4::IDENTITY);
-    scenes.push(("glossy grid", load(&glossy, "emitter-grid-glossy")));
+    scenes.push(("glossy grid", glossy_light_grid("emitter-grid-glossy")));
     for &name in veach::assets::stress::STRESS_SCENES {
         scenes.push((name, load(&veach::assets::stress::stress_scene(name).unwrap(), &format!("emitter-grid-{name}"))));
     }
