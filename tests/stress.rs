@@ -216,7 +216,10 @@ fn samples_cut_short_while_a_direction_ray_waits_are_taken_again() {
     };
     let mega = render(&gpu_scene, &s, &camera);
     let wave = render(&gpu_scene, &RenderSettings { execution: veach::Execution::Wavefront, ..s.clone() }, &camera);
-    assert_eq!(mega.kernel.waiting_direction_rays, renderer().gpu.auto_execution().waits_direction_rays());
+    // Where the emitters' grid is taken (Mesa 25, which has no loop limit) no ray waits, and the
+    // two kernels still take the same samples.
+    let waits = renderer().gpu.auto_execution().waits_direction_rays() && !mega.kernel.emitter_grid;
+    assert_eq!(mega.kernel.waiting_direction_rays, waits);
     let what = "waiting megakernel and wavefront";
     assert_same_samples_reordered("stress-waiting", what, &mega.sum, &wave.sum, &wave.sum, mega.width);
     assert_eq!(mega.truncated_samples > 0, loop_limited(), "{} samples retaken", mega.truncated_samples);
