@@ -214,11 +214,11 @@ impl Accumulation {
             key.baked = scene.baked.clone();
             // A BVH kernel's direction samples search the emitters' grid where the scene has one
             // (`Renderer::upload_scene`: where the driver branches and the grid pays), and the
-            // device binds one more storage buffer (the wavefront's three and the grid).
+            // device binds that many storage buffers.
             let storage_buffers = device.limits().max_storage_buffers_per_shader_stage;
             key.emitter_grid = key.baked.is_none()
                 && scene.emitter_grid.is_some()
-                && storage_buffers >= bindings::STORAGE_BUFFERS_NEEDED + 4;
+                && storage_buffers >= bindings::STORAGE_BUFFERS_WITH_EMITTER_GRID;
             // Where direction samples search the emitters' list or grid, no ray of theirs is left
             // to wait.
             key.waiting_direction_rays &= !key.emitter_grid && !scene.baked.as_ref().is_some_and(|b| b.emitter_list());

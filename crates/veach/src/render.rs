@@ -306,7 +306,8 @@ impl Renderer {
         // Where the driver branches around untaken code, its compact groups go behind boxes
         // and direction samples search the emitters' list (BakedTriangles::emitter_list).
         let info = &self.gpu.adapter_info;
-        let branches = memory == BvhMemory::AutoWithBoxes || !runs_branches_masked(&info.driver, &info.driver_info);
+        let masked = runs_branches_masked(&info.driver, &info.driver_info);
+        let branches = memory == BvhMemory::AutoWithBoxes || !masked;
         let group_nodes = if branches { &bvh.nodes[..] } else { &[] };
         let baked =
             if capacity > 0 { BakedTriangles::new(&arrays.vertices, &arrays.triangles, group_nodes) } else { None };
@@ -334,7 +335,7 @@ impl Renderer {
         // measured (docs/performance.md, "The emitters' grid"). Built before the arrays are
         // padded for uniform buffers.
         let forced_grid = memory == BvhMemory::StorageWithEmitterGrid;
-        let grid_pays_here = self.gpu.is_cpu() && !runs_branches_masked(&info.driver, &info.driver_info);
+        let grid_pays_here = self.gpu.is_cpu() && !masked;
         let emitter_grid = (baked.is_none() && (forced_grid || grid_pays_here))
             .then(|| EmitterGrid::build(&arrays.vertices, &arrays.triangles, &arrays.triangle_lights))
             .flatten()

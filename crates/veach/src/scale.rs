@@ -3,7 +3,7 @@
 //! A benchmark (it prints a table and writes CSV); the scenes come from `assets::scale`.
 
 use crate::assets::scale::{light_scene, triangle_scene};
-use crate::bench::render_seconds;
+use crate::bench::{median_spread, render_seconds};
 use crate::error::{Error, Result};
 use crate::gpu::layout::BvhNode;
 use crate::render::Renderer;
@@ -64,21 +64,8 @@ impl RepeatRatio {
     /// The ratios `times[r] / firsts[r]` over the repeats r both have (at least one).
     pub fn of(times: &[f64], firsts: &[f64]) -> RepeatRatio {
         let mut ratios: Vec<f64> = times.iter().zip(firsts).map(|(t, f)| t / f.max(f64::MIN_POSITIVE)).collect();
-        ratios.sort_by(f64::total_cmp);
-        RepeatRatio {
-            median: median_of_sorted(&ratios),
-            min: ratios.first().copied().unwrap_or(0.0),
-            max: ratios.last().copied().unwrap_or(0.0),
-        }
-    }
-}
-
-/// The median of ascending `v` (the mean of the middle two for an even count; 0 when empty).
-fn median_of_sorted(v: &[f64]) -> f64 {
-    match v.len() {
-        0 => 0.0,
-        n if n % 2 == 1 => v[n / 2],
-        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+        let (median, min, max) = median_spread(&mut ratios);
+        RepeatRatio { median, min, max }
     }
 }
 
@@ -195,8 +182,6 @@ fn point_rows(p: &ScalePoint, first: &ScalePoint) -> Vec<ScaleRow> {
         .iter()
         .enumerate()
         .map(|(k, (strategy, settings))| {
-            let mut times = p.times[k].clone();
-            times.sort_by(f64::total_cmp);
             // Both points render the same strategies in the same order (`scale_strategies`).
             let firsts = first.times.get(k).map_or(&p.times[k], |t| t);
             ScaleRow {
@@ -208,7 +193,7 @@ fn point_rows(p: &ScalePoint, first: &ScalePoint) -> Vec<ScaleRow> {
                 bvh_build_seconds: stats.bvh_build.as_secs_f64(),
                 bvh_nodes: stats.bvh_nodes,
                 gpu_scene_bytes: stats.gpu_scene_bytes,
-                render_seconds: median_of_sorted(&times),
+                render_seconds: median_spread(&mut p.times[k].clone()).0,
                 spp: settings.spp,
                 rays: p.rays[k],
                 ratio_to_first: RepeatRatio::of(&p.times[k], firsts),
@@ -341,6 +326,5 @@ mod tests {
         let q = RepeatRatio::of(&[3.0, 6.0, 3.3], &[2.0, 4.0, 2.0]);
         assert_eq!(q, RepeatRatio { median: 1.5, min: 1.5, max: 1.65 });
         assert_eq!(RepeatRatio::of(&[1.0, 2.0], &[1.0, 1.0]).median, 1.5);
-        assert_eq!(median_of_sorted(&[]), 0.0);
     }
 }

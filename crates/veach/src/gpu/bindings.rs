@@ -36,6 +36,9 @@ pub const CAMERA_FOOTPRINTS: u32 = 24;
 pub const EMITTER_GRID: u32 = 25;
 /// Storage buffers a render kernel binds (scene + outputs): a device must allow this many per stage.
 pub const STORAGE_BUFFERS_NEEDED: u32 = 1 + SCENE_COUNT + 1 + OUTPUT_COUNT + TEXTURES_COUNT;
+/// Storage buffers of the largest kernel with the emitters' grid: the wavefront's three deferred
+/// bindings and the grid besides.
+pub const STORAGE_BUFFERS_WITH_EMITTER_GRID: u32 = STORAGE_BUFFERS_NEEDED + 3 + 1;
 
 fn entry(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {

@@ -249,6 +249,12 @@ mod tests {
     }
 
     #[test]
+    fn the_kernel_reads_the_header_this_writes() {
+        let wgsl = include_str!("../../../../shaders/traverse_bvh.wgsl");
+        assert!(wgsl.contains(&format!("const EMITTER_GRID_HEADER: u32 = {HEADER_WORDS}u;")));
+    }
+
+    #[test]
     fn the_mean_chord_is_cauchys() {
         // A cube of side 2 in 4 cells a side: mean chord 4V/S = 4/3, so 1 + 3 · (2/3) · 3 / 2 = 4.
         assert!((expected_cells(DVec3::splat(2.0), [4, 4, 4]) - 4.0).abs() < 1e-12);
