@@ -318,14 +318,15 @@ struct DeferredSample {
     tri: u32,
     b1: f32,
     b2: f32,
-    // The sample plan's n (low 16 bits) and m (high 16 bits), and the rays traced so far.
-    plan: u32,
+    // The sample plan's n, and the rays traced so far.
+    light_samples: u32,
     rays: u32,
     // The camera sample's index (the pixel's own count of samples when its round began).
     sample: u32,
     // The plan's light_weighting (integrator.wgsl's LIGHT_*), for its cone light samples.
     light_weighting: u32,
-    _pad2: u32,
+    // The sample plan's m (each count 2^20 at most: settings.rs, MAX_SAMPLES_PER_CAMERA_SAMPLE).
+    direction_samples: u32,
 }
 
 // A dispatch runs rounds of the wavefront kernels, one camera sample per pixel each: the pixel's

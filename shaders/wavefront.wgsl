@@ -52,7 +52,7 @@ fn render_light_pass(@builtin(global_invocation_id) gid: vec3u) {
         e.brdf = screen.brdf;
         if cone_passes(plan) > 0u || screen.needs_rays {
             let slot = atomicAdd(&deferred_header.count, 1u);
-            deferred[slot] = DeferredSample(e.emitted, pixel, e.light, stream.dim, hit.tri, hit.b1, hit.b2, plan.n | (plan.m << 16u), rays, sample, plan.light_weighting, 0u);
+            deferred[slot] = DeferredSample(e.emitted, pixel, e.light, stream.dim, hit.tri, hit.b1, hit.b2, plan.n, rays, sample, plan.light_weighting, plan.m);
             return;
         }
     }
@@ -208,7 +208,7 @@ fn render_direction_pass(@builtin(global_invocation_id) gid: vec3u) {
     let ray = camera_ray(vec2u(x, y), sample_2d(&stream));
     let hit = Hit(0.0, q.b1, q.b2, q.tri, true);
     let c = shading_context(surface_at(hit, ray.dir), ray.dir);
-    let plan = SamplePlan(q.plan & 0xffffu, q.light_weighting, q.plan >> 16u);
+    let plan = SamplePlan(q.light_samples, q.light_weighting, q.direction_samples);
     // The stream where the light samples left it, after their requests.
     stream.dim = q.stream_dim;
     var rays = q.rays;

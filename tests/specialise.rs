@@ -767,3 +767,155 @@ fn image_agreement_allows_rounding_and_one_percent_of_pixels() {
     assert!(!with(&[(0, [f32::NAN, 0.5, 2.0, 3.0])]).within_rounding());
     assert!(!with(&[(5, [0.1, 0.5, 2.0, f32::INFINITY])]).within_rounding());
 }
+
+/// A room of 48 triangles (floor, back wall, three boxes, one of them glossy metal) under four
+/// small one-sided quad lights whose radiances span four decades (1, 20, 300, 5000): small enough
+/// to be compiled into the kernel, with several lights for every light selection to choose among.
+fn four_light_room() -> veach::Scene {
+    let mut g = GltfBuilder::new();
+    let matte = g.material(&MaterialDesc::lambert("matte", Vec3::splat(0.6)));
+    let metal = g.material(&MaterialDesc::metal("metal", Vec3::new(0.9, 0.7, 0.4), 0.2));
+    let floor = MeshData::quad(
+        Vec3::new(-3., 0., -3.),
+        Vec3::new(3., 0., -3.),
+        Vec3::new(3., 0., 3.),
+        Vec3::new(-3., 0., 3.),
+        Vec3::Y,
+    );
+    g.add_mesh("floor", &floor, matte, Mat4::IDENTITY);
+    let wall = MeshData::quad(
+        Vec3::new(-3., 0., -3.),
+        Vec3::new(3., 0., -3.),
+        Vec3::new(3., 3., -3.),
+        Vec3::new(-3., 3., -3.),
+        Vec3::Z,
+    );
+    g.add_mesh("wall", &wall, matte, Mat4::IDENTITY);
+    let square = |x: f32, z: f32, r: f32| {
+        [
+            Vec3::new(x - r, 0., z - r),
+            Vec3::new(x + r, 0., z - r),
+            Vec3::new(x + r, 0., z + r),
+            Vec3::new(x - r, 0., z + r),
+        ]
+    };
+    g.add_mesh("box a", &MeshData::prism(square(-1.2, -0.5, 0.4), 0.9), matte, Mat4::IDENTITY);
+    g.add_mesh("box b", &MeshData::prism(square(0.9, -1.0, 0.5), 1.4), metal, Mat4::IDENTITY);
+    g.add_mesh("box c", &MeshData::prism(square(0.2, 0.8, 0.3), 0.5), matte, Mat4::IDENTITY);
+    for (i, (radiance, x, z, y)) in
+        [(1.0, -2.0, -1.5, 2.2), (20.0, 1.8, 0.5, 2.0), (300.0, -0.3, 1.2, 2.5), (5000.0, 0.5, -2.0, 1.8)]
+            .into_iter()
+            .enumerate()
+    {
+        let e = g.material(&MaterialDesc::emitter(&format!("light {i}"), Vec3::splat(radiance)));
+        let r = 0.15;
+        let q = MeshData::quad(
+            Vec3::new(x - r, y, z - r),
+            Vec3::new(x + r, y, z - r),
+            Vec3::new(x + r, y, z + r),
+            Vec3::new(x - r, y, z + r),
+            -Vec3::Y,
+        );
+        g.add_mesh(&format!("light {i}"), &q, e, Mat4::IDENTITY);
+    }
+    g.camera("camera", Vec3::new(0.0, 2.2, 5.0), Vec3::new(0.0, 0.7, 0.0), 55.0);
+    load(&g, "specialise-four-lights")
+}
+
+/// Specialised = generic on a scene of several lights, for every light selection and on every
+/// execution path the driver offers: the megakernel's loop, its straight-line sample, camera
+/// footprint lists with deferred direction rays (several camera samples per run), the wavefront.
+/// A path that holds a direction ray across camera samples must not weigh it by a later sample's
+/// light-selection table (`--light-selection bsdf` chooses per shading point): that bias showed
+/// here as a different image.
+#[test]
+fn several_lights_render_the_generic_image_with_every_selection_and_path() {
+    let scene = four_light_room();
+    assert_eq!(scene.triangles.len(), 48);
+    let camera = scene.camera(None).unwrap();
+    let gpu_scene = upload(&scene);
+    let mut deferred_selections = Vec::new();
+    // Footprint lists need pixels small enough that each sees at most 8 triangles: 128 x 96 here.
+    for (execution, width, height) in
+        [(Execution::Auto, 128, 96), (Execution::Megakernel, 40, 30), (Execution::Wavefront, 40, 30)]
+    {
+        for light_selection in LightSelection::ALL {
+            for (strategy, n, m) in [(Strategy::Mis, 1, 1), (Strategy::Mis, 2, 3), (Strategy::Light, 1, 0)] {
+                let settings = RenderSettings {
+                    width,
+                    height,
+                    spp: 8,
+                    strategy,
+                    light_samples: n,
+                    brdf_samples: m,
+                    light_selection,
+                    execution,
+                    seed: 11,
+                    ..Default::default()
+                };
+                let special = render(&gpu_scene, &settings, &camera);
+                let generic = render(&gpu_scene, &RenderSettings { specialise: false, ..settings.clone() }, &camera);
+                let what = format!("{execution:?} {strategy:?} {n} + {m} {light_selection:?}");
+                if special.kernel.deferred_direction_rays {
+                    deferred_selections.push(light_selection);
+                }
+                let w = settings.width;
+                assert_same_samples_reordered("several-lights", &what, &special.sum, &generic.sum, &generic.sum, w);
+                let squares = format!("{what}: squares");
+                assert_same_samples_reordered(
+                    "several-lights",
+                    &squares,
+                    &special.sum_sq,
+                    &generic.sum_sq,
+                    &generic.sum,
+                    w,
+                );
+                assert_same_rays(&what, special.rays, generic.rays);
+            }
+        }
+    }
+    // Where the driver takes deferred direction rays (Mesa 22.3), they were compared above.
+    let masked = veach::features::AutoExecution::for_adapter(&renderer().gpu.adapter_info)
+        == veach::features::AutoExecution::WavefrontWhereMasked;
+    assert_eq!(!deferred_selections.is_empty(), masked, "deferred kernels with {deferred_selections:?}");
+}
+
+/// The wavefront's queue keeps a camera sample's light and direction sample counts at their full
+/// width (each up to 2^20, settings.rs): with 65,537 BRDF samples it weighs them as the
+/// megakernel does, where counts packed in 16 bits would have read 1. Mesa 22's lavapipe cannot
+/// run so many samples in one invocation (its loop limit, 65,535 iterations); there both must
+/// refuse with that reason instead of writing an image.
+#[test]
+fn the_wavefront_weighs_more_than_65535_samples_as_the_megakernel() {
+    let scene = shipped_scene("cornell-box");
+    let camera = scene.camera(None).unwrap();
+    let gpu_scene = upload(&scene);
+    let settings = RenderSettings {
+        width: 3,
+        height: 2,
+        spp: 1,
+        strategy: Strategy::Mis,
+        light_samples: 2,
+        brdf_samples: 65_537,
+        seed: 3,
+        execution: Execution::Megakernel,
+        ..Default::default()
+    };
+    let wave_settings = RenderSettings { execution: Execution::Wavefront, ..settings.clone() };
+    let results = [&settings, &wave_settings].map(|s| renderer().render(&gpu_scene, s, &camera, &mut |_| true));
+    match results {
+        [Ok(mega), Ok(wave)] => {
+            assert!(wave.kernel.wavefront && !mega.kernel.wavefront);
+            assert_same_image("wide-counts", "65,537 BRDF samples", &wave.sum, &mega.sum, settings.width);
+            assert_same_rays("65,537 BRDF samples", wave.rays, mega.rays);
+        }
+        [mega, wave] => {
+            let masked = veach::features::AutoExecution::for_adapter(&renderer().gpu.adapter_info)
+                == veach::features::AutoExecution::WavefrontWhereMasked;
+            for (name, r) in [("megakernel", mega), ("wavefront", wave)] {
+                let e = r.err().map(|e| e.to_string()).unwrap_or_default();
+                assert!(masked && e.contains("more loop iterations than this driver allows"), "{name}: {e}");
+            }
+        }
+    }
+}

@@ -95,6 +95,11 @@ pub enum Execution {
     Wavefront,
 }
 
+impl LightSelection {
+    pub const ALL: [LightSelection; 4] =
+        [LightSelection::Each, LightSelection::Uniform, LightSelection::Power, LightSelection::Bsdf];
+}
+
 impl LightSampling {
     pub fn name(self) -> &'static str {
         match self {

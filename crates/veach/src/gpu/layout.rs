@@ -272,11 +272,11 @@ pub struct DeferredSample {
     pub tri: u32,
     pub b1: f32,
     pub b2: f32,
-    pub plan: u32,
+    pub light_samples: u32,
     pub rays: u32,
     pub sample: u32,
     pub light_weighting: u32,
-    pub _pad2: u32,
+    pub direction_samples: u32,
 }
 
 /// The wavefront's rounds: samples deferred by one, waiting for the next (shaders/layout.wgsl);
@@ -374,7 +374,20 @@ pub fn rust_layouts() -> Vec<StructLayout> {
         layout!(LightPick { pdf, alias_prob, alias_index }),
         layout!(TestParams { routine, count, seed, light_index, wo, point, material }),
         layout!(PixelCounters { rays, nonfinite, truncated }),
-        layout!(DeferredSample { emitted, pixel, light, stream_dim, tri, b1, b2, plan, rays, sample, light_weighting }),
+        layout!(DeferredSample {
+            emitted,
+            pixel,
+            light,
+            stream_dim,
+            tri,
+            b1,
+            b2,
+            light_samples,
+            rays,
+            sample,
+            light_weighting,
+            direction_samples
+        }),
         layout!(DeferredHeader { count, pending }),
     ]
 }
