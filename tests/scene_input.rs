@@ -255,3 +255,197 @@ fn transparency_and_unsupported_material_extensions_are_warnings_naming_the_mate
     let scene = veach::load_gltf(&write_json("opaque.gltf", &triangle_json())).unwrap();
     assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
 }
+
+/// `triangle_json`'s buffer written to `bin` beside the file (and the JSON pointing at it), with
+/// `extra` bytes after its declared length.
+fn with_external_buffer(v: &mut serde_json::Value, bin: &str, extra: usize) {
+    use base64::Engine;
+    let uri = v["buffers"][0]["uri"].as_str().unwrap().to_owned();
+    let payload = uri.split_once(";base64,").unwrap().1;
+    let mut bytes = base64::engine::general_purpose::STANDARD.decode(payload).unwrap();
+    bytes.extend(std::iter::repeat_n(7u8, extra));
+    std::fs::write(dir().join(bin), bytes).unwrap();
+    v["buffers"][0]["uri"] = json!(bin);
+}
+
+/// A buffer is read up to its byteLength and no further: a URI naming an endless device loads
+/// (with a warning that it holds more) instead of filling memory, and a missing file is named.
+#[test]
+fn buffers_are_read_to_their_declared_length() {
+    let mut v = triangle_json();
+    v["buffers"][0]["uri"] = json!("/dev/zero");
+    let p = write_json("dev-zero.gltf", &v);
+    let start = std::time::Instant::now();
+    let scene = veach::load_gltf(&p).unwrap();
+    assert!(start.elapsed() < std::time::Duration::from_secs(5));
+    assert!(scene.warnings.iter().any(|w| w.contains("buffer 0") && w.contains("more than")), "{:?}", scene.warnings);
+
+    let mut v = triangle_json();
+    with_external_buffer(&mut v, "longer.bin", 16);
+    let scene = veach::load_gltf(&write_json("longer-buffer.gltf", &v)).unwrap();
+    assert_eq!(scene.triangles.len(), 1);
+    assert!(
+        scene.warnings.iter().any(|w| w.contains("longer.bin") && w.contains("byteLength")),
+        "{:?}",
+        scene.warnings
+    );
+
+    let mut v = triangle_json();
+    with_external_buffer(&mut v, "exact.bin", 0);
+    let scene = veach::load_gltf(&write_json("exact-buffer.gltf", &v)).unwrap();
+    assert!(scene.warnings.is_empty(), "{:?}", scene.warnings);
+
+    let mut v = triangle_json();
+    v["buffers"][0]["uri"] = json!("no-such-file.bin");
+    let e = load_err(&write_json("missing-bin.gltf", &v));
+    assert!(e.contains("missing-bin.gltf") && e.contains("no-such-file.bin") && e.contains("buffer 0"), "{e}");
+}
+
+/// 41 nodes, each listing the next as its child twice, place 2^40 instances: refused at once.
+#[test]
+fn hierarchies_that_multiply_instances_are_refused() {
+    let mut v = triangle_json();
+    let mesh_node = v["nodes"][0].clone();
+    let mut nodes = vec![mesh_node];
+    for i in 1..=41 {
+        nodes.push(json!({ "children": [i - 1, i - 1] }));
+    }
+    v["nodes"] = json!(nodes);
+    v["scenes"] = json!([{ "nodes": [41] }]);
+    v["scene"] = json!(0);
+    let start = std::time::Instant::now();
+    let e = load_err(&write_json("doubling-nodes.gltf", &v));
+    assert!(start.elapsed() < std::time::Duration::from_secs(10));
+    assert!(e.contains("doubling-nodes.gltf") && e.contains("node instances"), "{e}");
+}
+
+fn crc32(bytes: &[u8]) -> u32 {
+    // CRC-32 (ISO 3309), as PNG chunks carry it (PNG specification §5.5).
+    let mut crc = 0xffff_ffffu32;
+    for &b in bytes {
+        crc ^= b as u32;
+        for _ in 0..8 {
+            crc = if crc & 1 != 0 { (crc >> 1) ^ 0xedb8_8320 } else { crc >> 1 };
+        }
+    }
+    !crc
+}
+
+/// A PNG's signature and IHDR for a `size` × `size` RGBA8 image, without pixel data: enough for a
+/// reader of its dimensions.
+fn png_header(size: u32) -> Vec<u8> {
+    let mut ihdr = b"IHDR".to_vec();
+    ihdr.extend(size.to_be_bytes());
+    ihdr.extend(size.to_be_bytes());
+    ihdr.extend([8, 6, 0, 0, 0]);
+    let mut png = b"\x89PNG\r\n\x1a\n".to_vec();
+    png.extend(13u32.to_be_bytes());
+    png.extend(&ihdr);
+    png.extend(crc32(&ihdr).to_be_bytes());
+    // The first image data chunk (where readers stop reading the header), cut short, and the end.
+    for chunk in [b"IDAT\x78\x9c".as_slice(), b"IEND"] {
+        png.extend((chunk.len() as u32 - 4).to_be_bytes());
+        png.extend(chunk);
+        png.extend(crc32(chunk).to_be_bytes());
+    }
+    png
+}
+
+/// A textured triangle whose base colour texture is the image at `uri`.
+fn textured_triangle_json(uri: &str) -> serde_json::Value {
+    let mut v = triangle_json();
+    v["images"] = json!([{ "uri": uri }]);
+    v["textures"] = json!([{ "source": 0 }]);
+    v["materials"][0]["pbrMetallicRoughness"]["baseColorTexture"] = json!({ "index": 0 });
+    v
+}
+
+/// Texture images: a missing file is named, and one too large says its size and the limit
+/// before anything is decoded.
+#[test]
+fn texture_errors_name_the_image_and_the_limit() {
+    let e = load_err(&write_json("missing-texture.gltf", &textured_triangle_json("no-such-image.png")));
+    assert!(e.contains("missing-texture.gltf") && e.contains("no-such-image.png") && e.contains("texture 0"), "{e}");
+    std::fs::write(dir().join("huge.png"), png_header(16384)).unwrap();
+    let e = load_err(&write_json("huge-texture.gltf", &textured_triangle_json("huge.png")));
+    assert!(e.contains("huge-texture.gltf") && e.contains("16384x16384") && e.contains("256 MiB"), "{e}");
+}
+
+/// Files that break the specification in ways a reader can still follow load with a warning
+/// that says what is wrong: a byte-order mark, a GLB length that is not the file's, another
+/// asset version, an index count that is not a multiple of 3, a negative light intensity.
+#[test]
+fn recoverable_flaws_are_warnings() {
+    let warnings_of = |name: &str, bytes: &[u8]| -> Vec<String> {
+        let p = dir().join(name);
+        std::fs::write(&p, bytes).unwrap();
+        veach::load_gltf(&p).unwrap_or_else(|e| panic!("{e}")).warnings
+    };
+    let has = |w: &[String], text: &str| assert!(w.iter().any(|w| w.contains(text)), "no '{text}' in {w:?}");
+
+    let mut bom = b"\xEF\xBB\xBF".to_vec();
+    bom.extend(serde_json::to_vec(&triangle_json()).unwrap());
+    has(&warnings_of("bom.gltf", &bom), "byte-order mark");
+
+    // A GLB of the JSON alone whose header understates its length by 8 bytes; a file 8 bytes
+    // shorter than its header says is an error that says so.
+    let mut json_bytes = serde_json::to_vec(&triangle_json()).unwrap();
+    while !json_bytes.len().is_multiple_of(4) {
+        json_bytes.push(b' ');
+    }
+    let mut glb = b"glTF".to_vec();
+    glb.extend(2u32.to_le_bytes());
+    glb.extend((12 + 8 + json_bytes.len() as u32).to_le_bytes());
+    glb.extend((json_bytes.len() as u32).to_le_bytes());
+    glb.extend(b"JSON");
+    glb.extend(&json_bytes);
+    let mut understated = glb.clone();
+    understated[8..12].copy_from_slice(&(glb.len() as u32 - 8).to_le_bytes());
+    has(&warnings_of("understated-length.glb", &understated), "GLB header gives a length");
+    let p = dir().join("cut-short.glb");
+    std::fs::write(&p, &glb[..glb.len() - 8]).unwrap();
+    let e = load_err(&p);
+    assert!(e.contains("cut-short.glb") && e.contains("GLB header gives a length"), "{e}");
+
+    let mut v = triangle_json();
+    v["asset"]["version"] = json!("1.0");
+    has(&warnings_of("version-1.gltf", &serde_json::to_vec(&v).unwrap()), "asset.version");
+
+    let mut g = GltfBuilder::new();
+    let m = g.material(&MaterialDesc::lambert("grey", Vec3::splat(0.5)));
+    let tri =
+        MeshData { positions: vec![Vec3::ZERO, Vec3::X, Vec3::Y], normals: None, uvs: None, indices: vec![0, 1, 2, 0] };
+    g.add_mesh("four indices", &tri, m, glam::Mat4::IDENTITY);
+    has(&warnings_of("four-indices.gltf", &serde_json::to_vec(&g.to_json()).unwrap()), "not a multiple of 3");
+
+    let mut g = GltfBuilder::new();
+    g.punctual_light("dim", Punctual::Point, Vec3::splat(1.0), Vec3::Y, Vec3::ZERO);
+    let mut v = g.to_json();
+    v["extensions"]["KHR_lights_punctual"]["lights"][0]["intensity"] = json!(-5.0);
+    has(&warnings_of("negative-light.gltf", &serde_json::to_vec(&v).unwrap()), "negative");
+}
+
+/// Intensities beyond f32 (which would render black or poison the light choice) never reach the
+/// renderer silently: a punctual light's is a warning and the light is left out; a material's
+/// emission is an error naming it.
+#[test]
+fn light_beyond_f32_is_refused_or_left_out() {
+    let mut g = GltfBuilder::new();
+    g.punctual_light("sun in a box", Punctual::Point, Vec3::splat(1.0), Vec3::Y, Vec3::ZERO);
+    let mut v = g.to_json();
+    v["extensions"]["KHR_lights_punctual"]["lights"][0]["intensity"] = json!(1e39);
+    let scene = veach::load_gltf(&write_json("overflowing-light.gltf", &v)).unwrap();
+    assert!(scene.lights.is_empty());
+    assert!(
+        scene.warnings.iter().any(|w| w.contains("sun in a box") && w.contains("overflows")),
+        "{:?}",
+        scene.warnings
+    );
+
+    let mut v = triangle_json();
+    v["materials"][0]["emissiveFactor"] = json!([1.0, 1.0, 1.0]);
+    v["materials"][0]["extensions"] = json!({ "KHR_materials_emissive_strength": { "emissiveStrength": 1e39 } });
+    v["extensionsUsed"] = json!(["KHR_materials_emissive_strength"]);
+    let e = load_err(&write_json("overflowing-emission.gltf", &v));
+    assert!(e.contains("overflowing-emission.gltf") && e.contains("grey") && e.contains("overflows"), "{e}");
+}

@@ -375,6 +375,18 @@ impl Renderer {
                 max_binding >> 20
             )));
         }
+        if let Some(t) = &arrays.textures {
+            let bytes = std::mem::size_of_val(t.texels.as_slice()) as u64;
+            if bytes > max_binding {
+                return Err(Error::Gpu(format!(
+                    "the scene's {} textures need {} MiB of texels together but the adapter allows {} MiB per \
+                     binding; scale the textures down",
+                    scene.textures.len(),
+                    bytes >> 20,
+                    max_binding >> 20
+                )));
+            }
+        }
         let also_uniform = |n: u32| if n > 0 { wgpu::BufferUsages::UNIFORM } else { wgpu::BufferUsages::empty() };
         let buffers = vec![
             scene_buffer(device, "bvh_nodes", &arrays.bvh_nodes, also_uniform(uniform.bvh_nodes)),
@@ -570,11 +582,18 @@ impl Renderer {
         let mut whole: Option<RenderOutput> = None;
         // The tiles before this one: their pixel samples and render time.
         let (mut samples_before, mut time_before) = (0u64, Duration::ZERO);
+        // With a time limit, the first tile takes its share of it, and the others the camera
+        // samples it reached: every pixel of the image has the same count.
+        let mut tile_spp: Option<u32> = None;
         for rows in tiles {
             let share = rows.len() as f64 / height;
             let start = rows.start as f64 / height;
-            let tile_settings =
-                RenderSettings { time_limit: settings.time_limit.map(|t| t.mul_f64(share)), ..settings.clone() };
+            let tile_settings = match tile_spp {
+                Some(spp) => RenderSettings { spp, time_limit: None, ..settings.clone() },
+                None => {
+                    RenderSettings { time_limit: settings.time_limit.map(|t| t.mul_f64(share)), ..settings.clone() }
+                }
+            };
             let tile = self.render_rows(scene, &tile_settings, camera, rows, &mut |p| {
                 progress(Progress {
                     fraction: start + share * p.fraction,
@@ -583,6 +602,7 @@ impl Renderer {
                 })
             })?;
             samples_before += tile.sum.iter().map(|s| s[3] as u64).sum::<u64>();
+            tile_spp.get_or_insert(tile.min_samples());
             time_before += tile.render_time;
             let stop = tile.interrupted;
             whole = Some(match whole {
@@ -620,7 +640,15 @@ impl Renderer {
             acc.set_band_samples(BAND_SAMPLES);
         }
         let total_pixel_samples = settings.width as u64 * rows.len() as u64 * settings.spp as u64;
-        while !acc.is_complete() && settings.time_limit.is_none_or(|t| acc.render_time() < t) {
+        // Whether `progress` asked to stop.
+        let mut stopping = false;
+        while !acc.is_complete() {
+            // A render ends only between passes, and after its first: every pixel of the image
+            // then has the same camera samples, whatever stopped it.
+            let out_of_time = settings.time_limit.is_some_and(|t| acc.render_time() >= t);
+            if (out_of_time || stopping) && acc.at_pass_boundary() && acc.complete_samples() > 0 {
+                break;
+            }
             acc.dispatch(target)?;
             let done = acc.pixel_samples_done();
             let mut fraction = if total_pixel_samples > 0 { done as f64 / total_pixel_samples as f64 } else { 1.0 };
@@ -628,16 +656,12 @@ impl Renderer {
                 fraction = fraction.max(acc.render_time().as_secs_f64() / t.as_secs_f64().max(1e-9));
             }
             let p = Progress { fraction: fraction.min(1.0), pixel_samples_done: done, elapsed: acc.render_time() };
-            if !progress(p) {
-                break;
-            }
+            stopping |= !progress(p);
         }
-        if acc.is_complete() {
-            acc.take_left_out_samples()?;
-        }
+        acc.take_left_out_samples()?;
         let mut out = acc.read()?;
         // Running out of time is the budget, not an interruption.
-        out.interrupted &= settings.time_limit.is_none_or(|t| acc.render_time() < t);
+        out.interrupted = stopping && !acc.is_complete();
         Ok(out)
     }
 }

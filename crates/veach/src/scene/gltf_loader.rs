@@ -61,22 +61,50 @@ fn name_the_mesh(bytes: &[u8], message: &str) -> String {
     }
 }
 
+/// The UTF-8 byte-order mark, which glTF 2.0 §3.1 forbids at the start of its JSON.
+const UTF8_BOM: &[u8] = b"\xEF\xBB\xBF";
+
 fn load_gltf_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
     let err = |m: String| Error::scene(path, m);
+    let mut warnings = Vec::new();
+    let bytes = match bytes.strip_prefix(UTF8_BOM) {
+        Some(rest) => {
+            warnings
+                .push("the file starts with a UTF-8 byte-order mark, which glTF does not allow; read anyway".into());
+            rest
+        }
+        None => bytes,
+    };
+    let length_mismatch = glb_length_mismatch(bytes);
     let gltf = gltf::Gltf::from_slice(bytes).map_err(|e| {
         let message = e.to_string();
-        err(format!("not a valid glTF file: {message}{}", name_the_mesh(bytes, &message)))
+        let length = length_mismatch.as_ref().map(|w| format!(" ({w})")).unwrap_or_default();
+        err(format!("not a valid glTF file: {message}{}{length}", name_the_mesh(bytes, &message)))
     })?;
+    warnings.extend(length_mismatch.map(|w| format!("{w}; read anyway")));
+    let version = &gltf.document.as_json().asset.version;
+    if !version.starts_with("2.") {
+        warnings.push(format!("asset.version is \"{version}\"; veach reads glTF 2.0, so parts may be misread"));
+    }
     let base = path.parent().filter(|p| !p.as_os_str().is_empty()).unwrap_or(Path::new("."));
-    let buffers = gltf::import_buffers(&gltf.document, Some(base), gltf.blob.clone())
-        .map_err(|e| err(format!("cannot load buffers: {e}")))?;
+    let (buffers, buffer_warnings) =
+        super::gltf_resources::read_buffers(&gltf.document, base, gltf.blob.as_deref()).map_err(err)?;
+    warnings.extend(buffer_warnings);
     let doc = &gltf.document;
 
-    let mut scene = Scene::default();
+    let mut scene = Scene { warnings, ..Scene::default() };
     // Material i of the file is materials[i]; the default material is appended at the end.
     let mut textures = TextureTable { path, base, buffers: &buffers, index: HashMap::new(), textures: Vec::new() };
     for m in doc.materials() {
         let material = convert_material(&m, &mut textures)?;
+        if !material.emission.is_finite() {
+            return Err(err(format!(
+                "material '{}': emissiveFactor times emissiveStrength overflows f32 ({:?} x {})",
+                material.name,
+                m.emissive_factor(),
+                m.emissive_strength().unwrap_or(1.0)
+            )));
+        }
         scene.warnings.extend(ignored_material_features(&m, &material.name));
         scene.warnings.extend(factors_outside_their_range(&m, &material.name));
         if let Some(w) = beyond_f32_sums(&format!("material '{}': emission", material.name), material.emission) {
@@ -90,11 +118,22 @@ fn load_gltf_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
 
     let gltf_scene =
         doc.default_scene().or_else(|| doc.scenes().next()).ok_or_else(|| err("the file has no scene".into()))?;
-    let mut loader = Loader { path, buffers: &buffers, scene: &mut scene, default_material };
+    let mut loader = Loader { path, buffers: &buffers, scene: &mut scene, default_material, instances: 0 };
     for node in gltf_scene.nodes() {
         loader.visit(&node, Mat4::IDENTITY, 0)?;
     }
     Ok(scene)
+}
+
+/// A GLB's header states the file's whole length (glTF 2.0 §4.4.2); a file of another length was
+/// cut short or has bytes appended.
+fn glb_length_mismatch(bytes: &[u8]) -> Option<String> {
+    if !bytes.starts_with(b"glTF") || bytes.len() < 12 {
+        return None;
+    }
+    let declared = u32::from_le_bytes([bytes[8], bytes[9], bytes[10], bytes[11]]) as usize;
+    (declared != bytes.len())
+        .then(|| format!("the GLB header gives a length of {declared} bytes but the file has {}", bytes.len()))
 }
 
 /// The textures materials use, decoded once each (a glTF texture is an image + a sampler).
@@ -113,8 +152,8 @@ impl TextureTable<'_> {
         }
         let image = t.source();
         let name = t.name().or(image.name()).map(str::to_owned).unwrap_or_else(|| format!("texture {}", t.index()));
-        let data = gltf::image::Data::from_source(image.source(), Some(self.base), self.buffers)
-            .map_err(|e| Error::scene(self.path, format!("{name}: cannot load its image: {e}")))?;
+        let data = super::gltf_resources::read_image(&image, self.base, self.buffers)
+            .map_err(|e| Error::scene(self.path, format!("{name}: {e}")))?;
         let texels = rgba8(&data).ok_or_else(|| Error::scene(self.path, format!("{name}: the image is empty")))?;
         let sampler = t.sampler();
         let wrap = |w: gltf::texture::WrappingMode| match w {
@@ -253,6 +292,8 @@ struct Loader<'a> {
     buffers: &'a [gltf::buffer::Data],
     scene: &'a mut Scene,
     default_material: u32,
+    /// Nodes visited so far: a node reached along several paths is an instance on each.
+    instances: usize,
 }
 
 /// What a material asks for that veach's BRDF leaves out: transparency (alphaMode MASK or BLEND)
@@ -323,6 +364,14 @@ fn beyond_f32_sums(what: &str, value: Vec3) -> Option<String> {
 /// a file may skip validation-relevant data).
 const MAX_NODE_DEPTH: usize = 256;
 
+/// The most node instances a scene may have: a hierarchy where nodes share children multiplies
+/// them (41 nodes, each the next one's parent twice over, make 2^40), so it is bounded.
+pub const MAX_NODE_INSTANCES: usize = 1 << 20;
+
+/// The most triangles a scene may have once its instances are placed: about 4 GiB of host memory
+/// at 124 bytes a triangle, past the GPU's binding limits in any case.
+pub const MAX_TRIANGLES: usize = 1 << 25;
+
 impl Loader<'_> {
     fn err(&self, message: String) -> Error {
         Error::scene(self.path, message)
@@ -331,6 +380,14 @@ impl Loader<'_> {
     fn visit(&mut self, node: &gltf::Node, parent: Mat4, depth: usize) -> Result<()> {
         if depth > MAX_NODE_DEPTH {
             return Err(self.err(format!("node hierarchy deeper than {MAX_NODE_DEPTH} (a cycle?)")));
+        }
+        self.instances += 1;
+        if self.instances > MAX_NODE_INSTANCES {
+            return Err(self.err(format!(
+                "the node hierarchy places more than {MAX_NODE_INSTANCES} node instances (nodes listed as children \
+                 of several parents multiply); node {} was one too many",
+                node.index()
+            )));
         }
         let world = parent * Mat4::from_cols_array_2d(&node.transform().matrix());
         let node_name = node.name().map(str::to_owned).unwrap_or_else(|| format!("node {}", node.index()));
@@ -403,6 +460,18 @@ impl Loader<'_> {
                 )));
             }
             let triangles = triangle_list(prim.mode(), &indices).map_err(|m| self.err(format!("{what}: {m}")))?;
+            if prim.mode() == Mode::Triangles && !indices.len().is_multiple_of(3) {
+                self.scene.warnings.push(format!(
+                    "{what}: {} indices are not a multiple of 3; the last {} are ignored",
+                    indices.len(),
+                    indices.len() % 3
+                ));
+            }
+            if self.scene.triangles.len() + triangles.len() > MAX_TRIANGLES {
+                return Err(self.err(format!(
+                    "{what}: the scene would have more than {MAX_TRIANGLES} triangles (instances counted)"
+                )));
+            }
 
             let material = prim.material().index().map(|i| i as u32).unwrap_or(self.default_material);
             let first_triangle = self.scene.triangles.len() as u32;
@@ -449,6 +518,22 @@ impl Loader<'_> {
         let position = world.transform_point3(Vec3::ZERO);
         let direction = world.transform_vector3(-Vec3::Z).normalize_or(-Vec3::Z);
         let name = light.name().map(str::to_owned).unwrap_or_else(|| format!("light of node '{node_name}'"));
+        // KHR_lights_punctual: intensity and color are at least zero.
+        let at_least_zero = |v: f32| v >= 0.0;
+        if !at_least_zero(light.intensity()) || !light.color().into_iter().all(at_least_zero) {
+            self.scene.warnings.push(format!(
+                "{name}: intensity {} with color {:?} is negative; the light emits nothing",
+                light.intensity(),
+                light.color()
+            ));
+        }
+        if !color.is_finite() || !position.is_finite() {
+            self.scene.warnings.push(format!(
+                "{name}: its intensity or position overflows f32 (intensity {}); the light is left out",
+                light.intensity()
+            ));
+            return;
+        }
         if light.range().is_some() {
             self.scene
                 .warnings

@@ -3,10 +3,12 @@
 
 mod camera;
 mod gltf_loader;
+mod gltf_resources;
 mod texture;
 
 pub use camera::Camera;
-pub use gltf_loader::load_gltf;
+pub use gltf_loader::{MAX_NODE_INSTANCES, MAX_TRIANGLES, load_gltf};
+pub use gltf_resources::{MAX_IMAGE_FILE_BYTES, MAX_TEXTURE_BYTES};
 pub use texture::{Encoding, Texture, TextureRef, Wrap, srgb_to_linear, wrap_index};
 
 use glam::{Vec2, Vec3};
