@@ -459,3 +459,156 @@ fn info_says_whether_a_scene_takes_the_control_variate() {
     let veach_scene = stdout("veach-mis.gltf");
     assert!(veach_scene.contains("control variate: no (") && veach_scene.contains("3840"), "{veach_scene}");
 }
+
+/// Every pixel of a written image has the same camera samples, however the render stops: a time
+/// limit far shorter than one pass finishes the pass (rows left black before), and the header and
+/// --stats say how many samples the image holds.
+#[test]
+fn a_time_limit_keeps_whole_passes() {
+    let dir = out_dir();
+    for (limit, name) in [("0.001", "short"), ("1e-300", "tiny")] {
+        let out = dir.join(format!("time-limit-{name}.exr"));
+        let stats = dir.join(format!("time-limit-{name}.json"));
+        let o = veach(&[
+            "render",
+            &assets("veach-mis.gltf"),
+            "-o",
+            out.to_str().unwrap(),
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--time-limit",
+            limit,
+            "--stats",
+            stats.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let s: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
+        let (min, mean) = (&s["samples_per_pixel"]["min"], s["samples_per_pixel"]["mean"].as_f64().unwrap());
+        assert!(min.as_u64().unwrap() >= 1 && min.as_f64().unwrap() == mean, "{limit}: {s}");
+        let metadata = veach::image_io::read_metadata(&out).unwrap();
+        let spp = metadata.iter().find(|(k, _)| k.ends_with("spp")).map(|(_, v)| v.parse::<f64>().unwrap());
+        assert_eq!(spp, Some(mean), "{limit}");
+        // The Veach scene's backdrop fills every row: no row may be black.
+        let (w, _, px) = veach::image_io::read_image(&out).unwrap();
+        for (y, row) in px.chunks(w as usize).enumerate() {
+            assert!(row.iter().flatten().any(|v| *v > 0.0), "{limit}: row {y} is black");
+        }
+    }
+}
+
+/// A reader that goes away (`| head -1`) costs the output lines it would have read, never the
+/// render: veach finishes, writes its image and exits 0 instead of panicking on the broken pipe.
+#[test]
+fn a_closed_pipe_neither_panics_nor_loses_the_render() {
+    let dir = out_dir();
+    let out = dir.join("closed-pipe.png");
+    let _ = std::fs::remove_file(&out);
+    let bin = env!("CARGO_BIN_EXE_veach");
+    let scene = assets("cornell-box.gltf");
+    for (cmd, what) in [
+        (
+            format!(
+                "'{bin}' render '{scene}' -o '{}' --width 16 --height 16 2>&1 | head -c 1 >/dev/null",
+                out.display()
+            ),
+            "render",
+        ),
+        (format!("'{bin}' info '{scene}' | head -c 1 >/dev/null"), "info"),
+    ] {
+        // pipefail: the status is veach's, not head's.
+        let o = Command::new("bash").args(["-o", "pipefail", "-c", &cmd]).output().unwrap();
+        assert!(o.status.success(), "{what}: {:?} {}", o.status, stderr(&o));
+    }
+    assert!(veach::image_io::read_image(&out).is_ok(), "the render's image was not written");
+}
+
+/// --stats never overwrites the image it describes, the scene or a contribution image.
+#[test]
+fn stats_may_not_overwrite_an_input_or_output() {
+    let dir = out_dir();
+    let scene_copy = dir.join("stats-scene.gltf");
+    std::fs::copy(assets("cornell-box.gltf"), &scene_copy).unwrap();
+    let scene_before = std::fs::read(&scene_copy).unwrap();
+    let out = dir.join("stats-clash.png");
+    let out_str = out.to_str().unwrap();
+    let dotted = dir.join(".").join("stats-clash.png");
+    let aov = dir.join("stats-clash.light.png");
+    for (stats, what) in [
+        (out_str.to_owned(), "output image"),
+        (dotted.to_str().unwrap().to_owned(), "output image"),
+        (scene_copy.to_str().unwrap().to_owned(), "scene"),
+        (aov.to_str().unwrap().to_owned(), "contribution image"),
+    ] {
+        let o = veach(&[
+            "render",
+            scene_copy.to_str().unwrap(),
+            "-o",
+            out_str,
+            "--width",
+            "8",
+            "--height",
+            "8",
+            "--aov",
+            "light",
+            "--stats",
+            &stats,
+        ]);
+        assert!(!o.status.success(), "{what}: accepted");
+        assert!(stderr(&o).contains("would overwrite") && stderr(&o).contains(what), "{what}: {}", stderr(&o));
+    }
+    assert_eq!(std::fs::read(&scene_copy).unwrap(), scene_before);
+}
+
+/// Temporary files are named by veach, short whatever the output's name (a 249-character name
+/// was refused), and those a killed veach left behind are removed by the next write there.
+#[test]
+fn temporary_files_are_short_and_stale_ones_are_cleaned() {
+    let dir = out_dir().join("temp-files");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    // A process id that runs no process (above Linux's pid_max of 2^22).
+    let stale = dir.join(".veach-partial-4999999-0.tmp");
+    std::fs::write(&stale, b"half a file").unwrap();
+    let long_name = format!("{}.png", "x".repeat(245));
+    let out = dir.join(&long_name);
+    let o =
+        veach(&["render", &assets("cornell-box.gltf"), "-o", out.to_str().unwrap(), "--width", "8", "--height", "8"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let names: Vec<String> =
+        std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+    assert_eq!(names, vec![long_name], "left in the folder");
+}
+
+/// SIGTERM stops a render as Ctrl-C does: the pass in flight ends, the image is written, and no
+/// temporary file is left.
+#[cfg(unix)]
+#[test]
+fn sigterm_writes_the_samples_taken() {
+    let dir = out_dir().join("sigterm");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let out = dir.join("terminated.exr");
+    let stats = dir.join("terminated.json");
+    let child = Command::new(env!("CARGO_BIN_EXE_veach"))
+        .args(["render", &assets("cornell-box.gltf"), "-o", out.to_str().unwrap(), "--width", "32", "--height", "32"])
+        .args(["--spp", "1000000", "--stats", stats.to_str().unwrap()])
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Until the render has started (its kernel compiled and a pass under way).
+    std::thread::sleep(std::time::Duration::from_secs(4));
+    let killed = Command::new("kill").args(["-TERM", &child.id().to_string()]).status().unwrap();
+    assert!(killed.success());
+    let o = child.wait_with_output().unwrap();
+    assert!(o.status.success(), "{:?}: {}", o.status, stderr(&o));
+    assert!(stderr(&o).contains("interrupted"), "{}", stderr(&o));
+    let s: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
+    assert_eq!(s["interrupted"], true);
+    let min = s["samples_per_pixel"]["min"].as_u64().unwrap();
+    assert!(min >= 1 && s["samples_per_pixel"]["mean"].as_f64().unwrap() == min as f64, "{s}");
+    assert!(veach::image_io::read_image(&out).is_ok());
+    let names: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
+    assert_eq!(names.len(), 2, "{names:?}");
+}

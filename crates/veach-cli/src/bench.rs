@@ -1,5 +1,7 @@
 //! `veach bench`: error against render time for every strategy.
 
+use crate::console::errln;
+use crate::console::outln;
 use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::PathBuf;
@@ -123,7 +125,7 @@ pub fn bench(args: BenchArgs) -> Result<()> {
         scenes.push((path, scene, camera));
     }
     let gpu = GpuContext::new(args.adapter.as_deref())?;
-    eprintln!("adapter: {}; driver: {}", gpu.describe(), gpu.driver());
+    errln!("adapter: {}; driver: {}", gpu.describe(), gpu.driver());
     let renderer = Renderer::new(gpu)?;
     let per_scene = bench_units(&config);
     let total = per_scene * scenes.len() as u64;
@@ -182,7 +184,7 @@ pub fn bench(args: BenchArgs) -> Result<()> {
     write_text("results.csv", &csv(&rows))?;
     write_text("report.md", &report)?;
 
-    println!("{:<16} {:<12} {:>10} {:>12} {:>8}", "scene", "strategy", "spp", "relMSE", "slope");
+    outln!("{:<16} {:<12} {:>10} {:>12} {:>8}", "scene", "strategy", "spp", "relMSE", "slope");
     for b in &summaries {
         for r in &b.equal_time {
             let slope = b
@@ -192,14 +194,14 @@ pub fn bench(args: BenchArgs) -> Result<()> {
                 .and_then(veach::bench::fit_convergence)
                 .map(|(_, s)| format!("{s:.2}"))
                 .unwrap_or_else(|| "-".into());
-            println!("{:<16} {:<12} {:>10.1} {:>12.3e} {:>8}", b.scene, r.strategy, r.spp, r.metrics.relmse, slope);
+            outln!("{:<16} {:<12} {:>10.1} {:>12.3e} {:>8}", b.scene, r.strategy, r.spp, r.metrics.relmse, slope);
         }
         for w in slope_warnings(b) {
-            println!("warning: {w}");
+            outln!("warning: {w}");
         }
     }
-    println!("(equal time per scene; relMSE against the reference; slope of log relMSE vs log seconds)");
-    eprintln!("wrote {}", args.output.join("report.md").display());
+    outln!("(equal time per scene; relMSE against the reference; slope of log relMSE vs log seconds)");
+    errln!("wrote {}", args.output.join("report.md").display());
     Ok(())
 }
 

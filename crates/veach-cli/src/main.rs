@@ -2,6 +2,7 @@
 //! glTF scene headless.
 
 mod bench;
+mod console;
 mod options;
 mod render;
 mod scale;
@@ -10,6 +11,7 @@ mod view;
 
 use bench::BenchArgs;
 use clap::{Parser, Subcommand};
+use console::errln;
 use render::RenderArgs;
 use scale::ScaleArgs;
 use scene_tools::{export_mitsuba, generate, info};
@@ -87,7 +89,7 @@ fn main() {
         }
     };
     if let Err(e) = result {
-        eprintln!("error: {e:#}");
+        errln!("error: {e:#}");
         std::process::exit(1);
     }
 }

@@ -1,5 +1,6 @@
 //! `veach render`: a glTF scene to an image, headless.
 
+use crate::console::errln;
 use crate::options::{
     ExecutionArg, HeuristicArg, LightSamplingArg, SamplerArg, SelectionArg, StrategyArg, execution_of, heuristic_of,
     light_sampling_of, sampler_of, selection_of, strategy_of,
@@ -36,7 +37,8 @@ enum AovArg {
 OUTPUT
   By extension: .exr (linear float RGB), .png (8-bit sRGB after --exposure, clamped), .pfm.
   EXR and PNG headers record the settings that made the image (veach:* text).
-  The file is written whole or not at all; Ctrl-C stops early and writes what was accumulated.")]
+  The file is written whole or not at all. Ctrl-C or SIGTERM stops after the pass in progress
+  and writes it, every pixel with the same samples; a second one quits without writing.")]
 pub struct RenderArgs {
     /// glTF scene (.gltf or .glb)
     scene: PathBuf,
@@ -119,6 +121,17 @@ pub struct RenderArgs {
     execution: ExecutionArg,
 }
 
+/// Where a contribution image goes: beside the output, OUT.light.EXT, OUT.brdf.EXT or
+/// OUT.weights.png.
+fn aov_path(output: &std::path::Path, aov: AovArg) -> PathBuf {
+    let ext = output.extension().and_then(|e| e.to_str()).unwrap_or("exr");
+    match aov {
+        AovArg::Light => output.with_extension(format!("light.{ext}")),
+        AovArg::Brdf => output.with_extension(format!("brdf.{ext}")),
+        AovArg::Weights => output.with_extension("weights.png"),
+    }
+}
+
 pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
     let strategy = strategy_of(args.strategy);
     let (default_light, default_brdf) = strategy.default_sample_counts();
@@ -186,16 +199,41 @@ pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
 
 pub fn render(args: RenderArgs) -> Result<()> {
     let settings = settings_from(&args)?;
+    let stop = Arc::new(AtomicBool::new(false));
+    {
+        let stop = stop.clone();
+        // Installed first, so that a signal during loading is not fatal either. Ctrl-C or
+        // SIGTERM: finish the pass in flight, then write what was accumulated; a
+        // second one quits at once, writing nothing.
+        let _ = ctrlc::set_handler(move || {
+            if stop.swap(true, Ordering::SeqCst) {
+                std::process::exit(130);
+            }
+        });
+    }
     // Refuse an unknown output type before spending time on the render.
     veach::image_io::ImageFormat::from_path(&args.output)?;
     // And an output (or --stats file) that could not be written.
     veach::image_io::check_writable(&args.output)?;
     if let Some(path) = &args.stats {
+        for (other, what) in [(&args.output, "the output image"), (&args.scene, "the scene")] {
+            if veach::image_io::same_file(path, other) {
+                bail!("--stats {} would overwrite {what}; give the statistics a file of their own", path.display());
+            }
+        }
+        for aov in &args.aov {
+            if veach::image_io::same_file(path, &aov_path(&args.output, *aov)) {
+                bail!(
+                    "--stats {} would overwrite a contribution image; give the statistics a file of their own",
+                    path.display()
+                );
+            }
+        }
         veach::image_io::check_writable(path)?;
     }
     let say = |msg: String| {
         if !args.quiet {
-            eprintln!("{msg}");
+            errln!("{msg}");
         }
     };
 
@@ -252,30 +290,35 @@ pub fn render(args: RenderArgs) -> Result<()> {
         }
     ));
 
-    let stop = Arc::new(AtomicBool::new(false));
-    {
-        let stop = stop.clone();
-        // Ctrl-C: finish the dispatch in flight, then write what was accumulated.
-        let _ = ctrlc::set_handler(move || {
-            if stop.swap(true, Ordering::SeqCst) {
-                std::process::exit(130);
-            }
-        });
-    }
     let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(1000) };
     bar.set_style(
         ProgressStyle::with_template("{spinner} [{elapsed_precise}] {wide_bar} {percent:>3}% eta {eta} {msg}")
             .expect("valid template"),
     );
     let pixels = settings.width as u64 * settings.height as u64;
+    let mut told = false;
     let out = renderer.render(&gpu_scene, &settings, &camera, &mut |p| {
         bar.set_position((p.fraction * 1000.0) as u64);
+        let stopping = stop.load(Ordering::SeqCst);
+        if stopping && !told {
+            told = true;
+            bar.println("stopping: finishing the pass in progress so that every pixel has the same samples (again to quit without writing)");
+        }
         bar.set_message(format!("{:.1} spp", p.pixel_samples_done as f64 / pixels as f64));
-        !stop.load(Ordering::SeqCst)
+        !stopping
     })?;
     bar.finish_and_clear();
+    // Every pixel of an image veach writes has the same camera samples (a render stops between
+    // passes); only a tiled render stopped before its last tile can miss rows.
+    let (fewest, most) = (out.min_samples(), out.max_samples());
+    if fewest != most || fewest == 0 {
+        bail!(
+            "interrupted before every pixel had a camera sample (pixels have {fewest} to {most}); {} not written",
+            args.output.display()
+        );
+    }
     if out.interrupted {
-        say("interrupted: writing the samples accumulated so far".into());
+        say(format!("interrupted: writing the {fewest} camera samples per pixel taken so far"));
     }
 
     // What made the image, in an EXR or PNG file's header (`veach::image_io::read_metadata`).
@@ -290,21 +333,19 @@ pub fn render(args: RenderArgs) -> Result<()> {
     )?;
     if let Some(images) = out.contribution_images() {
         let (light, brdf, emitted) = (&images.light, &images.brdf, &images.emitted_luminance);
-        let ext = args.output.extension().and_then(|e| e.to_str()).unwrap_or("exr");
-        let sibling = |name: &str, ext: &str| args.output.with_extension(format!("{name}.{ext}"));
         let mut written = Vec::new();
         if args.aov.contains(&AovArg::Light) {
-            let path = sibling("light", ext);
+            let path = aov_path(&args.output, AovArg::Light);
             veach::image_io::write_image_with_metadata(&path, out.width, out.height, light, args.exposure, &metadata)?;
             written.push(path);
         }
         if args.aov.contains(&AovArg::Brdf) {
-            let path = sibling("brdf", ext);
+            let path = aov_path(&args.output, AovArg::Brdf);
             veach::image_io::write_image_with_metadata(&path, out.width, out.height, brdf, args.exposure, &metadata)?;
             written.push(path);
         }
         if args.aov.contains(&AovArg::Weights) {
-            let path = sibling("weights", "png");
+            let path = aov_path(&args.output, AovArg::Weights);
             let colours = veach::image_io::light_share_false_colour(light, brdf, emitted);
             veach::image_io::write_image_with_metadata(&path, out.width, out.height, &colours, 0.0, &metadata)?;
             written.push(path);

@@ -1,5 +1,7 @@
 //! `veach scale`: cost against triangle and light count.
 
+use crate::console::errln;
+use crate::console::outln;
 use crate::options::{ExecutionArg, execution_of};
 use anyhow::{Context, Result, bail};
 use indicatif::{ProgressBar, ProgressStyle};
@@ -72,7 +74,7 @@ pub fn scale(args: ScaleArgs) -> Result<()> {
         execution: execution_of(args.execution),
     };
     let gpu = GpuContext::new(args.adapter.as_deref())?;
-    eprintln!("adapter: {}; driver: {}", gpu.describe(), gpu.driver());
+    errln!("adapter: {}; driver: {}", gpu.describe(), gpu.driver());
     let renderer = Renderer::new(gpu)?;
     let bar = ProgressBar::new(scale_steps(&config) as u64);
     bar.set_style(
@@ -98,11 +100,14 @@ pub fn scale(args: ScaleArgs) -> Result<()> {
         ExecutionArg::Megakernel => ", the megakernel",
         ExecutionArg::Wavefront => ", the wavefront kernels",
     };
-    println!(
+    outln!(
         "{}x{}, {} spp, MIS 1 + 1 (the light sweep also light sampling, 2 samples), lights by power{execution}, median of {} renders;\n× first: the median of the renders' ratios to the sweep's first point, each rendered in the same turn (smallest–largest)\n",
-        config.width, config.height, config.spp, config.repeats
+        config.width,
+        config.height,
+        config.spp,
+        config.repeats
     );
-    println!("{}", scale_report(&rows));
-    println!("wrote {}", csv_path.display());
+    outln!("{}", scale_report(&rows));
+    outln!("wrote {}", csv_path.display());
     Ok(())
 }

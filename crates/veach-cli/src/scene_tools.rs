@@ -1,5 +1,7 @@
 //! `veach info`, `veach generate` and `veach export-mitsuba`: a scene looked at, written, exported.
 
+use crate::console::errln;
+use crate::console::outln;
 use anyhow::{Context, Result};
 use std::path::Path;
 use veach::RenderSettings;
@@ -10,12 +12,12 @@ pub fn info(path: &Path) -> Result<()> {
     }
     let scene = veach::load_gltf(path)?;
     let b = scene.bounds();
-    println!("{}", path.display());
-    println!("  triangles: {} ({} emissive)", scene.triangles.len(), scene.emissive_triangle_count());
-    println!("  bounds: {:?} .. {:?}", b.min.to_array(), b.max.to_array());
-    println!("  materials: {}", scene.materials.len());
+    outln!("{}", path.display());
+    outln!("  triangles: {} ({} emissive)", scene.triangles.len(), scene.emissive_triangle_count());
+    outln!("  bounds: {:?} .. {:?}", b.min.to_array(), b.max.to_array());
+    outln!("  materials: {}", scene.materials.len());
     for m in &scene.materials {
-        println!(
+        outln!(
             "    {}: base {:?} metallic {} roughness {} emission {:?}{}",
             m.name,
             m.base_color.to_array(),
@@ -25,7 +27,7 @@ pub fn info(path: &Path) -> Result<()> {
             if m.double_sided { " double-sided" } else { "" }
         );
     }
-    println!("  lights: {}", scene.lights.len());
+    outln!("  lights: {}", scene.lights.len());
     for l in &scene.lights {
         let kind = match &l.kind {
             veach::scene::LightKind::Area { triangles, .. } => {
@@ -35,31 +37,31 @@ pub fn info(path: &Path) -> Result<()> {
             veach::scene::LightKind::Spot { .. } => "spot".into(),
             veach::scene::LightKind::Directional { .. } => "directional".into(),
         };
-        println!("    {} ({kind})", l.name);
+        outln!("    {} ({kind})", l.name);
     }
     if !scene.textures.is_empty() {
-        println!("  textures: {}", scene.textures.len());
+        outln!("  textures: {}", scene.textures.len());
         for t in &scene.textures {
             let wrap = format!("{:?} x {:?}", t.wrap_s, t.wrap_t);
             let filter = if t.nearest { "nearest" } else { "bilinear" };
-            println!("    {}: {}x{}, {wrap}, {filter}", t.name, t.width, t.height);
+            outln!("    {}: {}x{}, {wrap}, {filter}", t.name, t.width, t.height);
         }
     }
     let features = veach::features::SceneFeatures::detect(&scene);
-    println!("  features: {}", features.describe());
+    outln!("  features: {}", features.describe());
     // Whether MIS renders of it may take --control-variate (the check `veach render` makes).
     let controlled = RenderSettings { control_variate: true, ..RenderSettings::mis_power() };
     let emitters = scene.emissive_triangle_count() as u32;
     match veach::control_variate::check(&features, emitters, &controlled) {
-        Ok(()) => println!("  control variate: takes --control-variate"),
-        Err(e) => println!("  control variate: no ({e})"),
+        Ok(()) => outln!("  control variate: takes --control-variate"),
+        Err(e) => outln!("  control variate: no ({e})"),
     }
-    println!("  cameras: {}", scene.cameras.len());
+    outln!("  cameras: {}", scene.cameras.len());
     for c in &scene.cameras {
-        println!("    '{}' at {:?}, yfov {:.1}°", c.name, c.position.to_array(), c.yfov.to_degrees());
+        outln!("    '{}' at {:?}, yfov {:.1}°", c.name, c.position.to_array(), c.yfov.to_degrees());
     }
     for w in &scene.warnings {
-        println!("  warning: {w}");
+        outln!("  warning: {w}");
     }
     Ok(())
 }
@@ -69,14 +71,14 @@ pub fn info(path: &Path) -> Result<()> {
 fn image_info(path: &Path) -> Result<()> {
     let (width, height, _) = veach::image_io::read_image(path)?;
     let metadata = veach::image_io::read_metadata(path)?;
-    println!("{}", path.display());
-    println!("  image: {width}x{height}");
+    outln!("{}", path.display());
+    outln!("  image: {width}x{height}");
     let settings: Vec<_> = metadata.iter().filter_map(|(n, v)| Some((n.strip_prefix("veach:")?, v))).collect();
     if settings.is_empty() {
-        println!("  no veach settings recorded (only EXR and PNG files written by veach carry them)");
+        outln!("  no veach settings recorded (only EXR and PNG files written by veach carry them)");
     }
     for (name, value) in settings {
-        println!("  {name}: {value}");
+        outln!("  {name}: {value}");
     }
     Ok(())
 }
@@ -86,13 +88,13 @@ pub fn export_mitsuba(path: &Path, output: &Path, camera: Option<&str>, round_li
     let camera = scene.camera(camera).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
     veach::mitsuba::export(&scene, &camera, output, round_lights_as_spheres)
         .with_context(|| format!("{}", path.display()))?;
-    eprintln!("wrote {}", output.join("scene.xml").display());
+    errln!("wrote {}", output.join("scene.xml").display());
     Ok(())
 }
 
 pub fn generate(name: &str, output: &Path) -> Result<()> {
     let builder = veach::assets::generate_scene(name).with_context(|| format!("unknown scene '{name}'"))?;
     builder.write(output)?;
-    eprintln!("wrote {}", output.display());
+    errln!("wrote {}", output.display());
     Ok(())
 }

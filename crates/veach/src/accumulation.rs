@@ -315,6 +315,13 @@ impl Accumulation {
         self.sample_start >= self.settings.spp
     }
 
+    /// Whether the last dispatch ended a pass over the image (or none ran): every pixel then has
+    /// `complete_samples` camera samples, once `take_left_out_samples` has taken any that the
+    /// driver's loop limit cut short.
+    pub fn at_pass_boundary(&self) -> bool {
+        self.row_start == 0
+    }
+
     /// Camera samples that every pixel has (a dispatch may have covered only some rows of the next).
     pub fn complete_samples(&self) -> u32 {
         self.sample_start
@@ -478,15 +485,17 @@ impl Accumulation {
     }
 
     /// Takes again the camera samples that Mesa 22's loop limit cut short (`loop_budget_held` in
-    /// shaders/integrator.wgsl left them out), until every pixel has `settings.spp`: each pixel
-    /// continues from its own count, so it ends with the same samples as without the limit.
-    /// Fails where one camera sample alone needs more loop iterations than the driver allows.
+    /// shaders/integrator.wgsl left them out), until every pixel has the samples of the passes
+    /// completed (`complete_samples`; at a pass boundary): each pixel continues from its own
+    /// count, so it ends with the same samples as without the limit. Fails where one camera
+    /// sample alone needs more loop iterations than the driver allows.
     pub fn take_left_out_samples(&mut self) -> Result<()> {
+        let target = self.sample_start;
         let mut behind = u32::MAX;
         loop {
             let sum: Vec<[f32; 4]> = read_buffer(&self.gpu.device, &self.gpu.queue, &self.accum)?;
-            let fewest = sum.iter().map(|s| s[3] as u32).min().unwrap_or(self.settings.spp);
-            if fewest >= self.settings.spp {
+            let fewest = sum.iter().map(|s| s[3] as u32).min().unwrap_or(target);
+            if fewest >= target {
                 return Ok(());
             }
             if fewest <= behind && behind != u32::MAX {
@@ -513,7 +522,7 @@ impl Accumulation {
             // ray waits, so that each run keeps the samples before the one cut short
             // (take_samples_waiting in shaders/integrator.wgsl).
             self.params.finish_samples = 1;
-            let submitted = self.submit(self.settings.height, self.settings.spp - fewest, false, true);
+            let submitted = self.submit(self.settings.height, target - fewest, false, true);
             self.params.finish_samples = 0;
             submitted?;
             (self.row_start, self.sample_start) = (row_start, sample_start);

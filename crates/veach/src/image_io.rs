@@ -198,11 +198,42 @@ fn write_pfm(out: &mut BufWriter<std::fs::File>, width: u32, height: u32, pixels
 
 /// A temporary name next to `path`, unique to this call: by process and by a count within it, so
 /// that two threads writing the same file (tests that share a scene) do not rename each other's.
+/// Short whatever the output's name (a name near the file system's 255-byte limit still takes
+/// one), and of veach's own form, so that `remove_stale_temp_files` can tell one that a killed
+/// process left.
 fn temp_path(path: &Path) -> PathBuf {
     static WRITES: std::sync::atomic::AtomicU64 = std::sync::atomic::AtomicU64::new(0);
     let n = WRITES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    path.with_file_name(format!(".{name}.tmp-{}-{n}", std::process::id()))
+    path.with_file_name(format!("{TEMP_PREFIX}{}-{n}{TEMP_SUFFIX}", std::process::id()))
+}
+
+const TEMP_PREFIX: &str = ".veach-partial-";
+const TEMP_SUFFIX: &str = ".tmp";
+
+/// Removes the temporary files of veach's naming in `dir` whose process no longer runs: left by a
+/// write that SIGKILL (or a power cut) stopped before its rename. Only where a process can be
+/// looked up by its id (Linux's /proc); elsewhere they stay.
+fn remove_stale_temp_files(dir: &Path) {
+    let proc = Path::new("/proc/self");
+    if !proc.exists() {
+        return;
+    }
+    let Ok(entries) = std::fs::read_dir(dir) else { return };
+    for entry in entries.flatten() {
+        let name = entry.file_name();
+        let Some(pid) = name
+            .to_str()
+            .and_then(|n| n.strip_prefix(TEMP_PREFIX))
+            .and_then(|n| n.strip_suffix(TEMP_SUFFIX))
+            .and_then(|n| n.split_once('-'))
+            .and_then(|(pid, _)| pid.parse::<u32>().ok())
+        else {
+            continue;
+        };
+        if pid != std::process::id() && !Path::new("/proc").join(pid.to_string()).exists() {
+            let _ = std::fs::remove_file(entry.path());
+        }
+    }
 }
 
 /// Checks, before a render spends its time, that `write_atomically` will be able to create its
@@ -218,6 +249,22 @@ pub fn check_writable(path: &Path) -> Result<()> {
     Ok(())
 }
 
+/// Whether two paths name the same file, whether or not it exists yet: their directories are
+/// compared once resolved (links, `..`), their file names as given.
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    let resolve = |p: &Path| -> Option<PathBuf> {
+        if let Ok(c) = p.canonicalize() {
+            return Some(c);
+        }
+        let dir = p.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+        Some(dir.canonicalize().ok()?.join(p.file_name()?))
+    };
+    match (resolve(a), resolve(b)) {
+        (Some(x), Some(y)) => x == y,
+        _ => a == b,
+    }
+}
+
 /// Writes through `write` into a temporary file, then renames it over `path`.
 pub fn write_atomically(
     path: &Path,
@@ -225,6 +272,9 @@ pub fn write_atomically(
 ) -> Result<()> {
     let err = |m: String| Error::Output { path: path.to_owned(), message: m };
     let tmp = temp_path(path);
+    if let Some(dir) = tmp.parent() {
+        remove_stale_temp_files(if dir.as_os_str().is_empty() { Path::new(".") } else { dir });
+    }
     let file = std::fs::File::create(&tmp).map_err(|e| err(format!("cannot create {}: {e}", tmp.display())))?;
     let mut writer = BufWriter::new(file);
     let result = write(&mut writer)

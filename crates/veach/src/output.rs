@@ -149,6 +149,10 @@ impl RenderOutput {
         self.sum.iter().map(|s| s[3] as u32).min().unwrap_or(0)
     }
 
+    pub fn max_samples(&self) -> u32 {
+        self.sum.iter().map(|s| s[3] as u32).max().unwrap_or(0)
+    }
+
     pub fn mean_samples(&self) -> f64 {
         self.sum.iter().map(|s| s[3] as f64).sum::<f64>() / self.sum.len().max(1) as f64
     }
