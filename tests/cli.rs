@@ -612,3 +612,75 @@ fn sigterm_writes_the_samples_taken() {
     let names: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().file_name()).collect();
     assert_eq!(names.len(), 2, "{names:?}");
 }
+
+/// An outside reference shows emitters seen directly (as Mitsuba's or pbrt's renders do): by
+/// default the bench renders them too. With --hide-emitters it leaves them out of its images; a
+/// reference that leaves them out too is then met (the error falls as 1 / samples, no warning),
+/// one that shows them is not, and the warning says the error levels off instead of diagnosing
+/// infinite variance. A PNG is no reference (display values).
+#[test]
+fn the_bench_renders_what_an_outside_reference_shows() {
+    let dir = out_dir().join("outside-reference");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let size = ["--width", "48", "--height", "48"];
+    let reference = |name: &str, extra: &[&str]| -> String {
+        let path = dir.join(name).to_str().unwrap().to_owned();
+        let o =
+            veach(&[&["render", &assets("cornell-box.gltf"), "-o", &path, "--spp", "1024"][..], &size, extra].concat());
+        assert!(o.status.success(), "{}", stderr(&o));
+        path
+    };
+    let (shown, hidden) = (reference("shown.exr", &[]), reference("hidden.exr", &["--hide-emitters"]));
+    // (relMSE of mis-balance at 1 and at 32 spp, the brightest pixel of any image, what it said)
+    let bench = |out: &str, reference: &str, extra: &[&str]| {
+        let out = dir.join(out);
+        let o = veach(
+            &[
+                &["bench", &assets("cornell-box.gltf"), "-o", out.to_str().unwrap(), "--reference", reference][..],
+                &size,
+                &["--max-spp", "32", "--seeds", "3", "--strategies", "mis-balance,light"],
+                extra,
+            ]
+            .concat(),
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        let csv = std::fs::read_to_string(out.join("results.csv")).unwrap();
+        let rows: Vec<Vec<String>> = csv.lines().skip(1).map(|l| l.split(',').map(str::to_owned).collect()).collect();
+        let median_relmse = |budget: &str| -> f64 {
+            let mut v: Vec<f64> = rows
+                .iter()
+                .filter(|r| r[1] == "mis-balance" && r[2] == budget)
+                .map(|r| r[6].parse().unwrap())
+                .collect();
+            v.sort_by(f64::total_cmp);
+            v[v.len() / 2]
+        };
+        let brightest = rows.iter().map(|r| r[10].parse::<f64>().unwrap()).fold(0.0, f64::max);
+        let said = String::from_utf8_lossy(&o.stdout).into_owned() + &stderr(&o);
+        let of_mis = said.lines().filter(|l| l.contains("mis-balance")).collect::<Vec<_>>().join("\n");
+        (median_relmse("1spp"), median_relmse("32spp"), brightest, of_mis)
+    };
+    // The Cornell box's light has radiance 17 (red): pixels that see it are far above any lit wall.
+    let (_, _, brightest, _) = bench("default", &shown, &[]);
+    assert!(brightest > 5.0, "no image showed the light: brightest pixel {brightest}");
+    let (first, last, brightest_hidden, said) = bench("both-hidden", &hidden, &["--hide-emitters"]);
+    assert!(brightest_hidden < 5.0, "an image showed the light: brightest pixel {brightest_hidden}");
+    // 32 times the samples: a 32th of the variance (Sobol points do better), with room for the
+    // reference's own error and three seeds' spread.
+    assert!(last < first / 8.0, "relMSE {first:.3e} at 1 spp, {last:.3e} at 32 spp");
+    assert!(!said.contains("warning"), "{said}");
+    let (first, last, _, said) = bench("mismatched", &shown, &["--hide-emitters"]);
+    assert!(last > first / 8.0, "relMSE {first:.3e} at 1 spp, {last:.3e} at 32 spp");
+    assert!(said.contains("levels off") && !said.contains("infinite variance"), "{said}");
+
+    let png = dir.join("reference.png");
+    let o = veach(&[&["render", &assets("cornell-box.gltf"), "-o", png.to_str().unwrap()][..], &size].concat());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = veach(&[&["bench", &assets("cornell-box.gltf"), "--reference", png.to_str().unwrap()][..], &size].concat());
+    assert!(
+        o.status.code() == Some(1) && stderr(&o).contains("reference.png") && stderr(&o).contains("linear"),
+        "{}",
+        stderr(&o)
+    );
+}

@@ -42,9 +42,15 @@ pub struct BenchArgs {
     /// Renders per budget (seeds 1..=N); the report gives the median and spread
     #[arg(long, default_value_t = 3)]
     seeds: u32,
-    /// Reference image (linear .exr or .pfm, same size) instead of rendering one (one scene only)
+    /// Reference image (linear .exr or .pfm, same size) instead of rendering one (one scene only).
+    /// It is taken to show emitters seen directly, as other renderers' images do, unless
+    /// --hide-emitters says it leaves them out
     #[arg(long)]
     reference: Option<PathBuf>,
+    /// Leave out emitters seen directly, in the reference and every measured image: errors then
+    /// measure reflected light alone
+    #[arg(long)]
+    hide_emitters: bool,
     /// Camera samples per pixel of the rendered reference [default: 16 × --max-spp, at least 256]
     #[arg(long)]
     reference_spp: Option<u32>,
@@ -106,9 +112,10 @@ pub fn bench(args: BenchArgs) -> Result<()> {
         },
         reference_spp: args.reference_spp.unwrap_or((16 * args.max_spp).max(256)),
         reference: match &args.reference {
-            Some(path) => Some(read_given_reference(path, args.width, args.height)?),
+            Some(path) => Some(read_given_reference(path, args.width, args.height, args.hide_emitters)?),
             None => None,
         },
+        hide_emitters: args.hide_emitters,
         equal_time: args.equal_time,
         out_dir: args.output.clone(),
     };
@@ -191,7 +198,7 @@ pub fn bench(args: BenchArgs) -> Result<()> {
                 .curves
                 .iter()
                 .find(|c| c.strategy == r.strategy)
-                .and_then(veach::bench::fit_convergence)
+                .and_then(veach::bench::fit_sample_convergence)
                 .map(|(_, s)| format!("{s:.2}"))
                 .unwrap_or_else(|| "-".into());
             outln!("{:<16} {:<12} {:>10.1} {:>12.3e} {:>8}", b.scene, r.strategy, r.spp, r.metrics.relmse, slope);
@@ -200,7 +207,7 @@ pub fn bench(args: BenchArgs) -> Result<()> {
             outln!("warning: {w}");
         }
     }
-    outln!("(equal time per scene; relMSE against the reference; slope of log relMSE vs log seconds)");
+    outln!("(equal time per scene; relMSE against the reference; slope of log relMSE vs log spp)");
     errln!("wrote {}", args.output.join("report.md").display());
     Ok(())
 }

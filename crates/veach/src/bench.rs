@@ -143,13 +143,16 @@ pub struct Reference {
     pub pixels: Vec<[f32; 3]>,
     /// How it was made: a file, or "MIS at N spp".
     pub source: String,
+    /// Whether it leaves out emitters seen directly; the images measured against it are rendered
+    /// the same way (an outside renderer's reference shows them).
+    pub hides_emitters: bool,
     /// The reference's own expected relMSE, from the spread between its replicates (0 for a
     /// given file).
     pub own_relmse: f64,
 }
 
 /// The reference's settings: MIS with the balance heuristic, every light sampled, 4 + 4 samples
-/// per camera sample, emitters seen directly left out (errors measure reflected light).
+/// per camera sample, emitters seen directly left out (callers choose: `render_reference`).
 pub fn reference_settings(width: u32, height: u32, spp: u32) -> RenderSettings {
     RenderSettings {
         width,
@@ -177,6 +180,7 @@ pub const REFERENCE_REPLICATES: u32 = 4;
 
 /// Renders the reference: MIS with the balance heuristic, every light sampled, 4 + 4 samples
 /// per camera sample, `spp` in all over REFERENCE_REPLICATES scrambles.
+#[allow(clippy::too_many_arguments)]
 pub fn render_reference(
     renderer: &Renderer,
     scene: &GpuScene,
@@ -184,9 +188,10 @@ pub fn render_reference(
     width: u32,
     height: u32,
     spp: u32,
+    hide_emitters: bool,
     progress: &mut dyn FnMut(f64) -> bool,
 ) -> Result<Reference> {
-    let mut settings = reference_settings(width, height, spp);
+    let mut settings = RenderSettings { hide_emitters, ..reference_settings(width, height, spp) };
     // Every light's own samples cost rays in proportion to the light count: past a few dozen
     // lights, one light chosen by power per light sample (16 of them) reaches a lower error.
     let by_power = scene.light_count > MAX_LIGHTS_SAMPLED_EACH;
@@ -213,7 +218,7 @@ pub fn render_reference(
     } else {
         format!("MIS 4+4, every light, {spp} spp")
     };
-    Ok(Reference { pixels, source, own_relmse })
+    Ok(Reference { pixels, source, own_relmse, hides_emitters: hide_emitters })
 }
 
 /// The mean of R ≥ 2 independently randomised images, and its expected relMSE against the
@@ -271,7 +276,14 @@ impl BenchRow {
     }
 }
 
-pub fn render_settings(s: &BenchStrategy, width: u32, height: u32, budget: &Budget, seed: u32) -> RenderSettings {
+pub fn render_settings(
+    s: &BenchStrategy,
+    width: u32,
+    height: u32,
+    budget: &Budget,
+    seed: u32,
+    hide_emitters: bool,
+) -> RenderSettings {
     let (spp, time_limit) = match *budget {
         Budget::Spp(n) => (n, None),
         Budget::Seconds(t) => (u32::MAX, Some(Duration::from_secs_f64(t))),
@@ -295,7 +307,7 @@ pub fn render_settings(s: &BenchStrategy, width: u32, height: u32, budget: &Budg
             Budget::Seconds(t) => Duration::from_secs_f64((t / 20.0).clamp(0.002, 0.15)),
             Budget::Spp(_) => RenderSettings::default().dispatch_target,
         },
-        hide_emitters: true,
+        hide_emitters,
         ..Default::default()
     }
 }
@@ -319,7 +331,7 @@ pub fn measure(
     width: u32,
     height: u32,
 ) -> Result<(BenchRow, RenderOutput)> {
-    let settings = render_settings(strategy, width, height, budget, seed);
+    let settings = render_settings(strategy, width, height, budget, seed, reference.hides_emitters);
     let out = renderer.render(scene, &settings, camera, &mut |_| true)?;
     let metrics = error_metrics(&out.mean(), &reference.pixels);
     let row = BenchRow {
@@ -393,14 +405,20 @@ pub fn curves(rows: &[BenchRow]) -> Vec<Curve> {
 }
 
 /// Least-squares line log relMSE = a + b log seconds over a curve's points: (a, b).
-/// A finite-variance estimator has slope b ≈ −1.
+/// A finite-variance estimator has slope b ≈ −1 where render time grows with the samples.
 pub fn fit_convergence(curve: &Curve) -> Option<(f64, f64)> {
-    let pts: Vec<(f64, f64)> = curve
-        .points
-        .iter()
-        .filter(|p| p.seconds > 0.0 && p.relmse > 0.0)
-        .map(|p| (p.seconds.ln(), p.relmse.ln()))
-        .collect();
+    fit_log_log(curve.points.iter().map(|p| (p.seconds, p.relmse)))
+}
+
+/// Least-squares line log relMSE = a + b log spp (camera samples per pixel): (a, b). The
+/// variance of a finite-variance estimator falls as 1 / samples, b ≈ −1, whatever fixed costs
+/// do to the render time (on a small image they dominate it).
+pub fn fit_sample_convergence(curve: &Curve) -> Option<(f64, f64)> {
+    fit_log_log(curve.points.iter().map(|p| (p.spp, p.relmse)))
+}
+
+fn fit_log_log(points: impl Iterator<Item = (f64, f64)>) -> Option<(f64, f64)> {
+    let pts: Vec<(f64, f64)> = points.filter(|&(x, y)| x > 0.0 && y > 0.0).map(|(x, y)| (x.ln(), y.ln())).collect();
     if pts.len() < 2 {
         return None;
     }
@@ -418,6 +436,59 @@ pub fn fit_convergence(curve: &Curve) -> Option<(f64, f64)> {
 
 /// A slope this much shallower than −1 is reported as a sign of infinite variance.
 pub const SHALLOW_SLOPE: f64 = -0.8;
+
+/// What a convergence curve says about its estimator.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Convergence {
+    /// Slope about −1 (or too few points to tell).
+    Finite,
+    /// The error levels off at about `floor` relMSE: the images converge to something other
+    /// than the reference (a bias, or a reference that shows something else), not a variance
+    /// problem.
+    BiasFloor { floor: f64 },
+    /// A straight but shallow line in log-log: heavy tails, a sign of infinite variance.
+    HeavyTails { slope: f64 },
+}
+
+/// Tells a bias floor from heavy tails, against camera samples per pixel n. A floor, relMSE =
+/// B + V / n, bends in log-log: its slope goes from about −1 towards 0 as V / n falls below B,
+/// and is flat where B dominates from the start. Heavy tails, relMSE ∝ n^−b with 0 < b < 1
+/// (about 1/2 for the usual infinite-variance estimators), keep one slope. So a shallow curve
+/// (`fit_sample_convergence`) whose least-squares floor B (fitted on 1 / n)
+/// holds at least half of its last error, and which either bends (its later half at least `BEND`
+/// flatter than its earlier half) or is flat (slope above `FLAT`), is a floor; any other shallow
+/// curve has heavy tails.
+pub fn diagnose_convergence(curve: &Curve) -> Convergence {
+    const BEND: f64 = 0.25;
+    const FLAT: f64 = -0.25;
+    let Some((_, slope)) = fit_sample_convergence(curve) else { return Convergence::Finite };
+    if slope <= SHALLOW_SLOPE {
+        return Convergence::Finite;
+    }
+    let mut points: Vec<CurvePoint> = curve.points.iter().copied().filter(|p| p.spp > 0.0 && p.relmse > 0.0).collect();
+    points.sort_by(|a, b| a.spp.total_cmp(&b.spp));
+    let half =
+        |range: &[CurvePoint]| fit_sample_convergence(&Curve { strategy: String::new(), points: range.to_vec() });
+    let n = points.len();
+    let bends = n >= 4
+        && matches!(
+            (half(&points[..n.div_ceil(2)]), half(&points[n / 2..])),
+            (Some((_, early)), Some((_, late))) if late - early >= BEND
+        );
+    // relMSE = B + V x with x = 1 / n, by least squares.
+    let xs: Vec<f64> = points.iter().map(|p| 1.0 / p.spp).collect();
+    let (mx, my) = (xs.iter().sum::<f64>() / n as f64, points.iter().map(|p| p.relmse).sum::<f64>() / n as f64);
+    let sxx: f64 = xs.iter().map(|x| (x - mx) * (x - mx)).sum();
+    let sxy: f64 = xs.iter().zip(&points).map(|(x, p)| (x - mx) * (p.relmse - my)).sum();
+    let v = if sxx > 0.0 { sxy / sxx } else { 0.0 };
+    let floor = my - v * mx;
+    let last = points.last().map_or(0.0, |p| p.relmse);
+    if (bends || slope > FLAT) && v >= 0.0 && floor >= 0.5 * last {
+        Convergence::BiasFloor { floor }
+    } else {
+        Convergence::HeavyTails { slope }
+    }
+}
 
 /// Seconds a strategy needs to reach `target` relMSE on its fitted line, and whether that lies
 /// outside the measured range (an extrapolation).
@@ -445,6 +516,33 @@ mod tests {
         // mis-lobes does not take the control variate (crate::control_variate::check).
         let unknown = strategies_by_name("mis-lobes-cv").unwrap_err();
         assert!(unknown.contains("unknown bench strategy 'mis-lobes-cv'"), "{unknown}");
+    }
+
+    fn curve_of(relmse: impl Fn(f64) -> f64) -> Curve {
+        let points = [0.01, 0.02, 0.04, 0.08, 0.16, 0.32, 0.64].map(|t| CurvePoint {
+            seconds: t,
+            relmse: relmse(t),
+            relmse_min: 0.0,
+            relmse_max: 0.0,
+            spp: 100.0 * t,
+        });
+        Curve { strategy: "test".into(), points: points.to_vec() }
+    }
+
+    #[test]
+    fn convergence_tells_a_bias_floor_from_heavy_tails() {
+        assert_eq!(diagnose_convergence(&curve_of(|t| 1e-3 / t)), Convergence::Finite);
+        // relMSE ∝ t^-0.5 (heavy tails, the shape of an infinite-variance estimator): one slope.
+        let tails = diagnose_convergence(&curve_of(|t| 1e-2 * t.powf(-0.5)));
+        assert!(matches!(tails, Convergence::HeavyTails { slope } if (slope + 0.5).abs() < 1e-9), "{tails:?}");
+        // A floor of 0.05 under a 1 / t fall (a reference that shows emitters the images leave out).
+        let floor = diagnose_convergence(&curve_of(|t| 0.05 + 2e-3 / t));
+        assert!(matches!(floor, Convergence::BiasFloor { floor } if (floor - 0.05).abs() < 1e-6), "{floor:?}");
+        // A floor that dominates from the first point: a flat line.
+        let flat = diagnose_convergence(&curve_of(|t| 0.9 + 1e-4 / t));
+        assert!(matches!(flat, Convergence::BiasFloor { floor } if (floor - 0.9).abs() < 1e-6), "{flat:?}");
+        // A floor the curve never comes near is not yet one: the fall dominates throughout.
+        assert_eq!(diagnose_convergence(&curve_of(|t| 1e-6 + 1e-3 / t)), Convergence::Finite);
     }
 
     #[test]

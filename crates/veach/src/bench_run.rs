@@ -20,6 +20,8 @@ pub struct BenchConfig {
     pub reference_spp: u32,
     /// A given reference image (`read_given_reference`) instead of rendering one.
     pub reference: Option<Reference>,
+    /// Leave out emitters seen directly, in the reference and every image measured against it.
+    pub hide_emitters: bool,
     /// Time of the equal-time comparison; default: mis-balance's median time at its largest budget.
     pub equal_time: Option<f64>,
     pub out_dir: PathBuf,
@@ -35,6 +37,8 @@ pub struct SceneBench {
     pub equal_time: Vec<BenchRow>,
     pub reference_source: String,
     pub reference_relmse: f64,
+    /// Whether emitters seen directly were left out of the reference and the images.
+    pub hides_emitters: bool,
     pub target_relmse: f64,
     /// Per image region at equal time: which strategy is best and how MIS compares.
     pub regions: Vec<RegionResult>,
@@ -68,15 +72,22 @@ fn compare_kernels(
     let mut times: [Vec<f64>; 2] = [Vec::new(), Vec::new()];
     for (k, specialise) in [false, true].into_iter().enumerate() {
         let fresh = Renderer::new(renderer.gpu.clone())?;
-        let tiny =
-            RenderSettings { width: 1, height: 1, spp: 1, specialise, ..render_settings(s, 1, 1, &Budget::Spp(1), 1) };
+        let tiny = RenderSettings {
+            width: 1,
+            height: 1,
+            spp: 1,
+            specialise,
+            ..render_settings(s, 1, 1, &Budget::Spp(1), 1, config.hide_emitters)
+        };
         creation[k] = fresh.render(scene, &tiny, camera, &mut |_| true)?.kernel_creation.as_secs_f64();
     }
     // Alternate the two kernels so that drift in the machine's speed hits both alike.
     for seed in 1..=config.seeds {
         for (k, specialise) in [false, true].into_iter().enumerate() {
-            let settings =
-                RenderSettings { specialise, ..render_settings(s, config.width, config.height, &budget, seed) };
+            let settings = RenderSettings {
+                specialise,
+                ..render_settings(s, config.width, config.height, &budget, seed, config.hide_emitters)
+            };
             let out = renderer.render(scene, &settings, camera, &mut |_| true)?;
             times[k].push(render_seconds(&out));
         }
@@ -259,9 +270,22 @@ pub fn bench_units(config: &BenchConfig) -> u64 {
     (config.strategies.len() * (config.budgets.len() + 1) * config.seeds as usize + 2) as u64
 }
 
-/// A reference image given to the bench (`--reference`): finite pixels (`image_io::read_reference`)
-/// at the bench's size, read once, before anything renders.
-pub fn read_given_reference(path: &Path, width: u32, height: u32) -> Result<Reference> {
+/// A reference image given to the bench (`--reference`): linear radiance (EXR or PFM; a PNG's
+/// 8-bit sRGB display values are not), finite pixels (`image_io::read_reference`) at the bench's
+/// size, read once, before anything renders. `hides_emitters`: whether it leaves out emitters
+/// seen directly (another renderer's reference shows them), as the bench's images will.
+pub fn read_given_reference(path: &Path, width: u32, height: u32, hides_emitters: bool) -> Result<Reference> {
+    match image_io::ImageFormat::from_path(path) {
+        Ok(image_io::ImageFormat::Exr | image_io::ImageFormat::Pfm) => {}
+        _ => {
+            return Err(Error::Output {
+                path: path.to_owned(),
+                message: "a reference must hold linear radiance: give an .exr or .pfm file (a PNG or JPEG holds \
+                          display values: tone-mapped, sRGB-encoded and clamped)"
+                    .into(),
+            });
+        }
+    }
     let (rw, rh, pixels) = image_io::read_reference(path)?;
     if (rw, rh) != (width, height) {
         return Err(Error::Options(format!(
@@ -269,7 +293,7 @@ pub fn read_given_reference(path: &Path, width: u32, height: u32) -> Result<Refe
             path.display()
         )));
     }
-    Ok(Reference { pixels, source: path.display().to_string(), own_relmse: 0.0 })
+    Ok(Reference { pixels, source: path.display().to_string(), own_relmse: 0.0, hides_emitters })
 }
 
 #[allow(clippy::too_many_arguments)]
@@ -292,7 +316,8 @@ pub fn bench_scene(
     let reference = match &config.reference {
         Some(given) => given.clone(),
         None => {
-            let cache = config.out_dir.join(format!("reference-{name}-{w}x{h}-{}spp.pfm", config.reference_spp));
+            let shown = if config.hide_emitters { "-emitters-hidden" } else { "" };
+            let cache = config.out_dir.join(format!("reference-{name}-{w}x{h}-{}spp{shown}.pfm", config.reference_spp));
             let meta = cache.with_extension("txt");
             match (image_io::read_reference(&cache), std::fs::read_to_string(&meta)) {
                 (Ok((cw, ch, pixels)), Ok(own)) if (cw, ch) == (w, h) => Reference {
@@ -304,10 +329,20 @@ pub fn bench_scene(
                         cache.display()
                     ),
                     own_relmse: own.trim().parse().unwrap_or(f64::NAN),
+                    hides_emitters: config.hide_emitters,
                 },
                 _ => {
                     progress(done, units_total, &format!("{name}: reference, {} spp", config.reference_spp));
-                    let r = render_reference(renderer, scene, camera, w, h, config.reference_spp, &mut |_| true)?;
+                    let r = render_reference(
+                        renderer,
+                        scene,
+                        camera,
+                        w,
+                        h,
+                        config.reference_spp,
+                        config.hide_emitters,
+                        &mut |_| true,
+                    )?;
                     image_io::write_image(&cache, w, h, &r.pixels, 0.0)?;
                     image_io::write_atomically(&meta, |f| {
                         use std::io::Write;
@@ -410,6 +445,7 @@ pub fn bench_scene(
         equal_time,
         reference_source: reference.source.clone(),
         reference_relmse: reference.own_relmse,
+        hides_emitters: reference.hides_emitters,
         target_relmse,
         regions,
         materials,
@@ -622,8 +658,10 @@ fn report_section(b: &SceneBench, config: &BenchConfig, plot: &Path, grid: &Path
     let _ = writeln!(
         s,
         "\n### Convergence\n\nTarget error: relMSE {:.3e} (what mis-balance reaches at its largest budget). \
-         Slope: least-squares fit of log relMSE against log seconds over the median points; about −1 \
-         for a finite-variance estimator, shallower than {SHALLOW_SLOPE} flags infinite variance.\n",
+         Slope: least-squares fit of log relMSE against log camera samples per pixel over the median \
+         points; about −1 for a finite-variance estimator. Shallower than {SHALLOW_SLOPE} is flagged: \
+         as heavy tails (infinite variance) where the line stays straight, as a bias floor where the \
+         error levels off at a constant.\n",
         b.target_relmse
     );
     let _ = writeln!(
@@ -632,11 +670,14 @@ fn report_section(b: &SceneBench, config: &BenchConfig, plot: &Path, grid: &Path
     );
     let _ = writeln!(s, "|---|---|---|---|---|---|");
     for c in &b.curves {
-        let slope = fit_convergence(c).map(|(_, b)| b);
-        let slope_text = match slope {
-            Some(v) if v > SHALLOW_SLOPE => format!("{v:.2} ⚠ shallower than −1: infinite variance?"),
-            Some(v) => format!("{v:.2}"),
-            None => "–".into(),
+        let slope = fit_sample_convergence(c).map(|(_, b)| b);
+        let slope_text = match (slope, diagnose_convergence(c)) {
+            (Some(v), Convergence::HeavyTails { .. }) => format!("{v:.2} ⚠ shallower than −1: infinite variance?"),
+            (Some(v), Convergence::BiasFloor { floor }) => {
+                format!("{v:.2} ⚠ levels off near relMSE {floor:.2e}: converges to something other than the reference")
+            }
+            (Some(v), Convergence::Finite) => format!("{v:.2}"),
+            (None, _) => "–".into(),
         };
         let time = match time_to_reach(c, b.target_relmse) {
             Some((t, true)) => format!("{t:.3} (extrapolated)"),
@@ -706,18 +747,24 @@ fn report_section(b: &SceneBench, config: &BenchConfig, plot: &Path, grid: &Path
     s
 }
 
-/// Slope warnings for the terminal.
+/// Convergence warnings for the terminal: heavy tails, or an error that levels off.
 pub fn slope_warnings(b: &SceneBench) -> Vec<String> {
     b.curves
         .iter()
-        .filter_map(|c| {
-            let (_, slope) = fit_convergence(c)?;
-            (slope > SHALLOW_SLOPE).then(|| {
-                format!(
-                    "{}: {} converges with slope {slope:.2} (shallower than −1): a sign of infinite variance",
-                    b.scene, c.strategy
-                )
-            })
+        .filter_map(|c| match diagnose_convergence(c) {
+            Convergence::Finite => None,
+            Convergence::HeavyTails { slope } => Some(format!(
+                "{}: {} converges with slope {slope:.2} (shallower than −1): a sign of infinite variance",
+                b.scene, c.strategy
+            )),
+            Convergence::BiasFloor { floor } => Some(format!(
+                "{}: {}'s error levels off near relMSE {floor:.2e} instead of falling: its images converge to \
+                 something other than the reference (a bias, or a reference that shows or leaves out something \
+                 else: emitters seen directly are {} here)",
+                b.scene,
+                c.strategy,
+                if b.hides_emitters { "left out (--hide-emitters)" } else { "shown" }
+            )),
         })
         .collect()
 }
