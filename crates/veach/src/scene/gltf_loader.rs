@@ -16,12 +16,18 @@ pub fn load_gltf(path: &Path) -> Result<Scene> {
     // places), report it as a bad file, without the panic message.
     match quiet_catch_unwind(|| load_gltf_bytes(path, &bytes)) {
         Some(result) => result,
-        None => Err(Error::scene(path, "malformed glTF: the glTF reader failed on its contents")),
+        None => {
+            // Where it failed, for a bug report (the fuzz test also tells the reader's code from ours).
+            let at = CAUGHT_AT.with(|c| c.take());
+            Err(Error::scene(path, format!("malformed glTF: the glTF reader failed on its contents (at {at})")))
+        }
     }
 }
 
 thread_local! {
     static QUIET_PANICS: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
+    /// The source location of the last panic `quiet_catch_unwind` kept quiet on this thread.
+    static CAUGHT_AT: std::cell::RefCell<String> = const { std::cell::RefCell::new(String::new()) };
 }
 
 /// catch_unwind that keeps the panic message off stderr, for this thread only.
@@ -30,7 +36,10 @@ fn quiet_catch_unwind<T>(f: impl FnOnce() -> T + std::panic::UnwindSafe) -> Opti
     HOOK.call_once(|| {
         let previous = std::panic::take_hook();
         std::panic::set_hook(Box::new(move |info| {
-            if !QUIET_PANICS.with(|q| q.get()) {
+            if QUIET_PANICS.with(|q| q.get()) {
+                let at = info.location().map(|l| format!("{}:{}", l.file(), l.line())).unwrap_or_default();
+                CAUGHT_AT.with(|c| *c.borrow_mut() = at);
+            } else {
                 previous(info);
             }
         }));
