@@ -16,6 +16,6 @@ for name in ${STRESS_SCENES:-$all}; do
     "$veach" generate "stress-$name" -o "$scenes/stress-$name.gltf"
 done
 "$veach" bench "$scenes"/stress-*.gltf -o docs/stability \
-    --width 64 --height 64 --max-spp 32 --seeds 3 --reference-spp 1024 \
+    --width 64 --height 64 --max-spp 32 --seeds 3 --reference-spp 1024 --hide-emitters \
     --strategies uniform,brdf,light,light-solid-angle,mis-balance,mis-balance-solid-angle,mis-lobes,mis-lobes-solid-angle \
     "$@"

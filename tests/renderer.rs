@@ -104,6 +104,9 @@ fn time_limit_stops_the_render_and_reports_the_samples_reached() {
     assert!(out.render_time < Duration::from_secs(3), "{:?}", out.render_time);
 }
 
+/// A render stopped early (Ctrl-C) keeps what it accumulated, and stops only between passes: with
+/// one-nanosecond dispatches (bands of a few rows) it finishes the pass in flight, so every pixel
+/// has the same camera samples.
 #[test]
 fn stopping_early_keeps_what_was_accumulated() {
     let scene = shipped_scene("cornell-box");
@@ -118,8 +121,9 @@ fn stopping_early_keeps_what_was_accumulated() {
         })
         .unwrap();
     assert!(out.interrupted);
-    assert_eq!(out.dispatches, 3);
-    assert!(out.sum.iter().any(|s| s[3] > 0.0));
+    assert!(out.dispatches > 3, "{} dispatches: the first pass was not finished", out.dispatches);
+    let (fewest, most) = (out.min_samples(), out.max_samples());
+    assert!(fewest == most && (1..1000).contains(&fewest), "pixels have {fewest} to {most} samples");
 }
 
 /// A one-sided emitter is dark from behind; a doubleSided one shows its radiance from both sides.
