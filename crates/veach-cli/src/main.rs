@@ -46,15 +46,21 @@ enum Command {
         /// glTF scene (.gltf or .glb), or an image
         scene: PathBuf,
     },
-    /// Write one of the scenes veach generates as .gltf: the ones shipped in assets/, and the
-    /// stiff and extreme scenes of the stability suite (stress-*)
+    /// Write one of the scenes veach generates as .gltf: the ones shipped in assets/, the stiff
+    /// and extreme scenes of the stability suite (stress-*), or with `zoo` the scene zoo (35
+    /// scenes in families, from a seed) into a folder, with an index zoo.csv
     Generate {
-        /// Scene name
-        #[arg(value_parser = clap::builder::PossibleValuesParser::new(veach::assets::scene_names()))]
+        /// Scene name, or `zoo`
+        #[arg(value_parser = clap::builder::PossibleValuesParser::new(
+            veach::assets::scene_names().into_iter().chain(["zoo"])
+        ))]
         name: String,
-        /// Output file (.gltf)
+        /// Output file (.gltf); for `zoo` a folder
         #[arg(short, long)]
         output: PathBuf,
+        /// The zoo's seed: another seed, other scenes of the same families
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
     },
     /// Write a scene for Mitsuba 3 (scene.xml and PLY meshes), for the peer comparison in
     /// bench/peer_mitsuba.py; refuses materials and lights that would not render the same
@@ -83,7 +89,7 @@ fn main() {
         Command::Bench(args) => bench::bench(args),
         Command::Scale(args) => scale::scale(args),
         Command::Info { scene } => info(&scene),
-        Command::Generate { name, output } => generate(&name, &output),
+        Command::Generate { name, output, seed } => generate(&name, &output, seed),
         Command::ExportMitsuba { scene, output, camera, round_lights_as_spheres } => {
             export_mitsuba(&scene, &output, camera.as_deref(), round_lights_as_spheres)
         }

@@ -92,9 +92,30 @@ pub fn export_mitsuba(path: &Path, output: &Path, camera: Option<&str>, round_li
     Ok(())
 }
 
-pub fn generate(name: &str, output: &Path) -> Result<()> {
+pub fn generate(name: &str, output: &Path, seed: u64) -> Result<()> {
+    if name == "zoo" {
+        return generate_zoo(output, seed);
+    }
     let builder = veach::assets::generate_scene(name).with_context(|| format!("unknown scene '{name}'"))?;
     builder.write(output)?;
     errln!("wrote {}", output.display());
+    Ok(())
+}
+
+/// The scene zoo of `seed` into folder `output`: NAME.gltf each, and zoo.csv (name, family, what).
+fn generate_zoo(output: &Path, seed: u64) -> Result<()> {
+    std::fs::create_dir_all(output).with_context(|| format!("cannot create {}", output.display()))?;
+    let mut index = String::from("name,family,what\n");
+    let scenes = veach::assets::zoo::zoo(seed);
+    for s in &scenes {
+        s.builder.write(&output.join(format!("{}.gltf", s.name)))?;
+        index.push_str(&format!("{},{},\"{}\"\n", s.name, s.family, s.what));
+    }
+    let csv = output.join("zoo.csv");
+    veach::image_io::write_atomically(&csv, |f| {
+        use std::io::Write;
+        f.write_all(index.as_bytes()).map_err(|e| e.to_string())
+    })?;
+    errln!("wrote {} scenes (seed {seed}) and {}", scenes.len(), csv.display());
     Ok(())
 }

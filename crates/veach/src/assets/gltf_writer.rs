@@ -256,7 +256,12 @@ impl GltfBuilder {
     /// A mesh placed by a node with `transform`.
     pub fn add_mesh(&mut self, name: &str, mesh: &MeshData, material: usize, transform: Mat4) {
         let m = self.mesh(name, mesh, material);
-        self.nodes.push(json!({ "name": name, "mesh": m, "matrix": transform.to_cols_array() }));
+        self.instance(name, m, transform);
+    }
+
+    /// Mesh `mesh` (from `mesh`) placed once more, by a node of its own: glTF instancing.
+    pub fn instance(&mut self, name: &str, mesh: usize, transform: Mat4) {
+        self.nodes.push(json!({ "name": name, "mesh": mesh, "matrix": transform.to_cols_array() }));
     }
 
     pub fn camera(&mut self, name: &str, position: Vec3, target: Vec3, yfov_degrees: f32) {

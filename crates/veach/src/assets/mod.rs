@@ -4,6 +4,7 @@
 pub mod gltf_writer;
 pub mod scale;
 pub mod stress;
+pub mod zoo;
 
 use crate::scene::Wrap;
 use glam::{Mat4, Vec2, Vec3};
