@@ -684,3 +684,57 @@ fn the_bench_renders_what_an_outside_reference_shows() {
         stderr(&o)
     );
 }
+
+/// Without --strategy a render takes the defaults measured on the scene zoo (MIS 1 + 1, the power
+/// heuristic, lights by power, 32 spp); naming a strategy gives the classic comparison's settings
+/// (MIS 32 + 32, every light, the balance heuristic, 1 spp); a flag given replaces its part.
+#[test]
+fn defaults_are_the_zoos_and_named_strategies_the_classic_ones() {
+    let dir = out_dir();
+    let settings_of = |name: &str, extra: &[&str]| -> serde_json::Value {
+        let (out, stats) = (dir.join(format!("{name}.exr")), dir.join(format!("{name}.json")));
+        let o = veach(
+            &[
+                &[
+                    "render",
+                    &assets("cornell-box.gltf"),
+                    "-o",
+                    out.to_str().unwrap(),
+                    "--stats",
+                    stats.to_str().unwrap(),
+                ][..],
+                &["--width", "8", "--height", "8"],
+                extra,
+            ]
+            .concat(),
+        );
+        assert!(o.status.success(), "{}", stderr(&o));
+        let s: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
+        serde_json::json!({ "settings": s["settings"], "spp": s["samples_per_pixel"]["requested"] })
+    };
+    let expect = |v: &serde_json::Value, light: u64, brdf: u64, heuristic: &str, selection: &str, spp: u64| {
+        let s = &v["settings"];
+        assert_eq!(
+            (
+                &s["strategy"],
+                &s["light_samples"],
+                &s["brdf_samples"],
+                &s["heuristic"],
+                &s["light_selection"],
+                &v["spp"]
+            ),
+            (
+                &serde_json::json!("mis"),
+                &serde_json::json!(light),
+                &serde_json::json!(brdf),
+                &serde_json::json!(heuristic),
+                &serde_json::json!(selection),
+                &serde_json::json!(spp)
+            ),
+            "{v}"
+        );
+    };
+    expect(&settings_of("defaults", &[]), 1, 1, "power", "power", 32);
+    expect(&settings_of("named-mis", &["--strategy", "mis"]), 32, 32, "balance", "each", 1);
+    expect(&settings_of("defaults-bsdf", &["--light-selection", "bsdf", "--spp", "2"]), 1, 1, "power", "bsdf", 2);
+}
