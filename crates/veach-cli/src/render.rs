@@ -146,10 +146,11 @@ const DEFAULT_SPP: u32 = 32;
 
 pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
     // Without --strategy: MIS 1 + 1, the power heuristic, lights by power, 32 spp. On the scene
-    // zoo (seed 1, 35 scenes, 128x96, 16 spp) it was the most robust setting measured: the
-    // classic MIS 32 + 32 with every light sampled took 0.44x its efficiency (geometric mean) and
-    // failed on 5 scenes of 100 lights or more (Mesa 22's loop limit); choosing lights per point
-    // (bsdf) gained 1.03x on average but fell to 0.21x on point and spot lights.
+    // zoo (seeds 1 and 2, 35 scenes, 128x96, 16 spp; docs/performance.md, "Defaults on the scene
+    // zoo") it was the most robust setting measured: the classic MIS 32 + 32 with every light
+    // sampled took 0.36-0.37x its efficiency (geometric mean) and failed on the 5 scenes of 100
+    // lights or more (Mesa 22's loop limit); choosing lights per point (bsdf) gained 1.03-1.04x on
+    // average but fell to 0.20-0.26x on point and spot lights.
     let named = args.strategy.is_some();
     let strategy = args.strategy.map_or(Strategy::Mis, strategy_of);
     let (default_light, default_brdf) = if named { strategy.default_sample_counts() } else { (1, 1) };
