@@ -4,7 +4,8 @@
     python3 bench/peer_mitsuba.py assets/cornell-box.gltf assets/veach-mis.gltf -o target/peer
 
 For each scene: `veach export-mitsuba` writes the same triangles, normals, radiance and camera
-as Mitsuba XML/PLY; a reference is rendered by veach (MIS 4+4, every light, --reference-spp);
+as Mitsuba XML/PLY; a reference is rendered by veach (MIS 4+4, every light, --reference-spp; past 32 lights 16+4 with
+lights chosen by power);
 then veach (MIS, 1 light + 1 BRDF sample per camera sample, one light chosen per shading point by
 power and the BSDF (--veach-light-selection; `power` for power alone), the power heuristic) and
 Mitsuba 3 (`llvm_ad_rgb`, integrator `direct` with emitter_samples = bsdf_samples
@@ -161,8 +162,17 @@ def main():
         # several times the error (Cornell box: its difference from Mitsuba's was 9.9e-6, not 1.1e-6).
         ref_path = out_dir / f"{name}-reference-{w}x{h}-{args.reference_spp}spp-sobol.pfm"
         if not ref_path.exists():
-            veach_render(args.veach, scene, ref_path, w, h, args.reference_spp, 0x5eed, 4, 4, selection="each",
-                         heuristic="balance")
+            # Every light sampled up to 32 lights; past that (where each light's own samples would
+            # cost rays in proportion to the count) 16 light samples chosen by power, as veach
+            # bench's reference does.
+            lights = next(int(line.split(":")[1]) for line in run([args.veach, "info", scene]).stdout.splitlines()
+                          if line.strip().startswith("lights:"))
+            if lights <= 32:
+                veach_render(args.veach, scene, ref_path, w, h, args.reference_spp, 0x5eed, 4, 4, selection="each",
+                             heuristic="balance")
+            else:
+                veach_render(args.veach, scene, ref_path, w, h, args.reference_spp, 0x5eed, 16, 4, selection="power",
+                             heuristic="balance")
         reference = read_pfm(ref_path)
 
         def mitsuba_render(spp, seed, sampler, timed=True):

@@ -6,7 +6,8 @@ worst case.
     python3 bench/zoo.py target/zoo -o target/zoo-bench --variant "mis 1+1 power=--light-samples 1 --brdf-samples 1 --light-selection power"
 
 For each scene of the folder (`veach generate zoo` writes them, with zoo.csv): a reference
-rendered by veach (MIS 4 + 4, one light chosen by power per light sample, --reference-spp), then
+rendered by veach (MIS 4 + 4, one light chosen by power per light sample, --reference-spp, as two
+halves of independent seeds whose difference estimates the reference's own relMSE), then
 each variant at --spp camera samples per pixel, --seeds times. A variant is NAME=FLAGS: the
 flags `veach render` gets on top of the size, seed and --spp ("defaults=" for none at all). Emitters
 seen directly are left out of every image (--hide-emitters), so errors measure reflected light.
@@ -17,7 +18,9 @@ as such and counts as the worst case.
 
 Writes DIR/zoo.csv (one row per scene and variant) and prints a Markdown table: each variant's
 efficiency relative to the first variant per scene, then the geometric mean and the worst ratio
-over the scenes.
+over the scenes. A scene enters the means only where the first variant's relMSE is at least 4
+times the reference's own (else the ratio measures the reference's noise) and its reference is
+not black; the table marks the others.
 
 Needs numpy.
 """
@@ -81,14 +84,22 @@ def main():
     rows = []
     for name in names:
         scene = os.path.join(args.zoo, f"{name}.gltf")
-        ref_path = os.path.join(args.output, f"{name}-reference-{args.width}x{args.height}-{args.reference_spp}spp.pfm")
-        if not os.path.exists(ref_path):
-            err = render(args.veach, scene, ref_path, size + ["--spp", str(args.reference_spp), "--strategy", "mis",
-                         "--light-samples", "4", "--brdf-samples", "4", "--light-selection", "power", "--seed", "999"])
-            if err:
-                print(f"{name}: reference failed: {err}", file=sys.stderr)
-                continue
-        ref = read_pfm(ref_path)
+        halves = []
+        for half, seed in (("a", "999"), ("b", "998")):
+            path = os.path.join(args.output, f"{name}-reference-{args.width}x{args.height}-{args.reference_spp}spp-{half}.pfm")
+            if not os.path.exists(path):
+                err = render(args.veach, scene, path, size + ["--spp", str(max(args.reference_spp // 2, 1)),
+                             "--strategy", "mis", "--light-samples", "4", "--brdf-samples", "4",
+                             "--light-selection", "power", "--seed", seed])
+                if err:
+                    print(f"{name}: reference failed: {err}", file=sys.stderr)
+                    break
+            halves.append(read_pfm(path))
+        if len(halves) < 2:
+            continue
+        ref = 0.5 * (halves[0] + halves[1])
+        # Each half's error variance is twice the mean's: E[(a - b)^2] = 4 Var(mean).
+        ref_own = relmse(halves[0], halves[1]) / 4.0
         for vname, flags in variants:
             effs, errs, secs = [], [], []
             failure = None
@@ -104,7 +115,7 @@ def main():
                 errs.append(e)
                 secs.append(seconds)
                 effs.append(1.0 / max(e * seconds, 1e-300))
-            row = {"scene": name, "variant": vname, "failure": failure or "",
+            row = {"scene": name, "variant": vname, "failure": failure or "", "reference_relmse": ref_own,
                    "relmse": statistics.median(errs) if errs and not failure else math.nan,
                    "seconds": statistics.median(secs) if secs and not failure else math.nan,
                    "efficiency": statistics.median(effs) if effs and not failure else 0.0}
@@ -112,25 +123,29 @@ def main():
             print(f"{name:28} {vname:24} relMSE {row['relmse']:.3e} {row['seconds']:.3f} s"
                   + (f"  FAILED: {failure}" if failure else ""), file=sys.stderr, flush=True)
     with open(os.path.join(args.output, "zoo.csv"), "w") as f:
-        f.write("scene,variant,relmse,seconds,efficiency,failure\n")
+        f.write("scene,variant,relmse,seconds,efficiency,reference_relmse,failure\n")
         for r in rows:
-            f.write(f"{r['scene']},{r['variant']},{r['relmse']:.6e},{r['seconds']:.6f},{r['efficiency']:.6e},\"{r['failure']}\"\n")
+            f.write(f"{r['scene']},{r['variant']},{r['relmse']:.6e},{r['seconds']:.6f},{r['efficiency']:.6e},"
+                    f"{r['reference_relmse']:.6e},\"{r['failure']}\"\n")
     # The table: each variant's efficiency over the first's, per scene.
     base = variants[0][0]
-    print(f"| scene | {' | '.join(v for v, _ in variants)} |")
-    print("|---|" + "---|" * len(variants))
+    print(f"| scene | reference's own relMSE | {' | '.join(v for v, _ in variants)} |")
+    print("|---|---|" + "---|" * len(variants))
     ratios = {v: [] for v, _ in variants}
     for name in dict.fromkeys(r["scene"] for r in rows):
         by = {r["variant"]: r for r in rows if r["scene"] == name}
         b = by.get(base)
-        cells = []
+        own = next(iter(by.values()))["reference_relmse"]
+        # Ratios only where the baseline's error stands well above the reference's own.
+        measurable = b is not None and not b["failure"] and b["relmse"] > 0.0 and b["relmse"] >= 4.0 * own
+        cells = [f"{own:.1e}" + ("" if measurable else " (too noisy to rank)")]
         for v, _ in variants:
             r = by.get(v)
             if r is None or r["failure"]:
                 cells.append("fails")
-                ratios[v].append(0.0)
-            elif b is None or b["failure"] or b["relmse"] == 0.0:
-                # No ratio where the baseline failed or its image is black (nothing to measure).
+                if measurable:
+                    ratios[v].append(0.0)
+            elif not measurable:
                 cells.append(f"{r['relmse']:.2e} in {r['seconds']:.3f} s")
             else:
                 ratio = r["efficiency"] / b["efficiency"]
@@ -144,8 +159,9 @@ def main():
         good = [x for x in ratios[v] if x > 0]
         geo.append(f"{math.exp(sum(map(math.log, good)) / len(good)):.2f}x" if good else "-")
         worst.append(f"{min(ratios[v]):.2f}x" if ratios[v] else "-")
-    print(f"| geometric mean (scenes where both ran) | {' | '.join(geo)} |")
-    print(f"| worst | {' | '.join(worst)} |")
+    n = len(ratios[base])
+    print(f"| geometric mean ({n} scenes; failures left out) | | {' | '.join(geo)} |")
+    print(f"| worst (a failure: 0.00x) | | {' | '.join(worst)} |")
 
 
 if __name__ == "__main__":

@@ -15,24 +15,9 @@ use glam::{Mat4, Vec3};
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
+use veach::assets::SplitMix64 as Rng;
 use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData, Punctual};
 use veach::scene::LightKind;
-
-/// SplitMix64 (Steele, Lea & Flood 2014): a small seeded generator.
-struct Rng(u64);
-
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
-    }
-    fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
-    }
-}
 
 fn dir() -> PathBuf {
     let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("veach-tests").join("fuzz-gltf");
@@ -178,7 +163,7 @@ fn mutant(rng: &mut Rng, doc: &Value) -> (Vec<u8>, &'static str) {
                     0 => f32::NAN.to_bits(),
                     1 => f32::INFINITY.to_bits(),
                     2 => u32::MAX,
-                    _ => rng.next() as u32,
+                    _ => rng.next_u64() as u32,
                 };
                 bin[at..at + 4].copy_from_slice(&word.to_le_bytes());
                 let encoded = base64::engine::general_purpose::STANDARD.encode(&bin);

@@ -10,6 +10,25 @@ use crate::scene::Wrap;
 use glam::{Mat4, Vec2, Vec3};
 use gltf_writer::{GltfBuilder, MaterialDesc, MaterialTextures, MeshData, TextureDesc, TextureUse};
 
+/// SplitMix64 (Steele, Lea & Flood, "Fast splittable pseudorandom number generators", OOPSLA
+/// 2014): the seeded numbers of generated scenes (the zoo) and of the loader's fuzz test.
+pub struct SplitMix64(pub u64);
+
+impl SplitMix64 {
+    pub fn next_u64(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+
+    /// Uniform in 0..n (0 for n = 0; the modulo's bias is below 2^-40 for the n used here).
+    pub fn below(&mut self, n: usize) -> usize {
+        (self.next_u64() % n.max(1) as u64) as usize
+    }
+}
+
 /// Names of the scenes `generate_scene` knows.
 pub const SHIPPED_SCENES: &[&str] = &["cornell-box", "veach-mis", "textured"];
 

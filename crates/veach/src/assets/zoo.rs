@@ -9,6 +9,7 @@
 //! shape (displaced spheres, instanced rocks, grass blades); materials (diffuse, glossy, mirror,
 //! rough metal, textured); and the stiff cases of the stability suite (`stress`).
 
+use super::SplitMix64;
 use super::gltf_writer::{GltfBuilder, MaterialDesc, MaterialTextures, MeshData, Punctual, TextureUse};
 use glam::{Mat4, Quat, Vec2, Vec3};
 use std::f32::consts::TAU;
@@ -21,25 +22,17 @@ pub struct ZooScene {
     pub builder: GltfBuilder,
 }
 
-/// SplitMix64 (Steele, Lea & Flood 2014): the zoo's seeded generator.
-struct Rng(u64);
+/// The zoo's seeded numbers: each scene its own stream, so that adding a scene changes no other.
+struct Rng(SplitMix64);
 
 impl Rng {
     fn new(seed: u64, stream: &str) -> Rng {
-        // Each scene its own stream, so that adding a scene changes no other.
         let h = stream.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| (h ^ b as u64).wrapping_mul(0x100_0000_01b3));
-        Rng(seed ^ h)
-    }
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9e37_79b9_7f4a_7c15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
-        z ^ (z >> 31)
+        Rng(SplitMix64(seed ^ h))
     }
     /// Uniform in [0, 1).
     fn f(&mut self) -> f32 {
-        (self.next() >> 40) as f32 / (1u64 << 24) as f32
+        (self.0.next_u64() >> 40) as f32 / (1u64 << 24) as f32
     }
     fn range(&mut self, lo: f32, hi: f32) -> f32 {
         lo + (hi - lo) * self.f()
@@ -49,7 +42,7 @@ impl Rng {
         (lo.ln() + (hi.ln() - lo.ln()) * self.f()).exp()
     }
     fn below(&mut self, n: usize) -> usize {
-        (self.next() % n.max(1) as u64) as usize
+        self.0.below(n)
     }
 }
 
@@ -75,14 +68,11 @@ fn stage(g: &mut GltfBuilder) {
     g.camera("camera", Vec3::new(0.0, 2.2, 6.0), Vec3::new(0.0, 0.8, 0.0), 50.0);
 }
 
-/// A few objects to light and shadow: a matte box, a glossy sphere, a rough metal sphere.
+/// A few objects to light and shadow: a matte box, a glossy metal sphere, a rough metal sphere
+/// (metals and Lambertian surfaces only, so that `veach export-mitsuba` writes the same BSDFs).
 fn props(g: &mut GltfBuilder) {
     let matte = g.material(&MaterialDesc::lambert("box", Vec3::new(0.7, 0.5, 0.3)));
-    let glossy = g.material(&MaterialDesc {
-        roughness: 0.25,
-        specular: 1.0,
-        ..MaterialDesc::lambert("glossy", Vec3::new(0.2, 0.4, 0.7))
-    });
+    let glossy = g.material(&MaterialDesc::metal("glossy metal", Vec3::new(0.3, 0.5, 0.9), 0.2));
     let metal = g.material(&MaterialDesc::metal("rough metal", Vec3::new(0.9, 0.75, 0.5), 0.45));
     let corners =
         [Vec3::new(-2.2, 0., -1.0), Vec3::new(-1.2, 0., -1.3), Vec3::new(-0.9, 0., -0.3), Vec3::new(-1.9, 0., 0.0)];
@@ -266,11 +256,7 @@ fn mesh_blob(seed: u64, triangles: usize) -> GltfBuilder {
     let mut rng = Rng::new(seed, &format!("mesh-blob-{triangles}"));
     let mut g = GltfBuilder::new();
     stage(&mut g);
-    let clay = g.material(&MaterialDesc {
-        roughness: 0.5,
-        specular: 0.5,
-        ..MaterialDesc::lambert("clay", Vec3::new(0.75, 0.6, 0.5))
-    });
+    let clay = g.material(&MaterialDesc::lambert("clay", Vec3::new(0.75, 0.6, 0.5)));
     g.add_mesh("blob", &blob(Vec3::new(0.0, 1.1, -0.5), 1.1, triangles, &mut rng), clay, Mat4::IDENTITY);
     two_lights(&mut g);
     g
