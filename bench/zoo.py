@@ -138,7 +138,8 @@ def main():
         own = next(iter(by.values()))["reference_relmse"]
         # Ratios only where the baseline's error stands well above the reference's own.
         measurable = b is not None and not b["failure"] and b["relmse"] > 0.0 and b["relmse"] >= 4.0 * own
-        cells = [f"{own:.1e}" + ("" if measurable else " (too noisy to rank)")]
+        black = b is not None and not b["failure"] and b["relmse"] == 0.0
+        cells = [f"{own:.1e}" + ("" if measurable else " (black: nothing to rank)" if black else " (too noisy to rank)")]
         for v, _ in variants:
             r = by.get(v)
             if r is None or r["failure"]:

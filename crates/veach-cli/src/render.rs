@@ -148,9 +148,9 @@ pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
     // Without --strategy: MIS 1 + 1, the power heuristic, lights by power, 32 spp. On the scene
     // zoo (seeds 1 and 2, 35 scenes, 128x96, 16 spp; docs/performance.md, "Defaults on the scene
     // zoo") it was the most robust setting measured: the classic MIS 32 + 32 with every light
-    // sampled took 0.36-0.37x its efficiency (geometric mean) and failed on the 5 scenes of 100
-    // lights or more (Mesa 22's loop limit); choosing lights per point (bsdf) gained 1.03-1.04x on
-    // average but fell to 0.20-0.26x on point and spot lights.
+    // sampled took 0.40-0.41x its efficiency (geometric mean) and failed on the 5 scenes of 100
+    // lights or more (Mesa 22's loop limit); choosing lights per point (bsdf) gained 1.06-1.10x on
+    // average but fell to 0.23-0.35x on point and spot lights and degenerate emitters.
     let named = args.strategy.is_some();
     let strategy = args.strategy.map_or(Strategy::Mis, strategy_of);
     let (default_light, default_brdf) = if named { strategy.default_sample_counts() } else { (1, 1) };
