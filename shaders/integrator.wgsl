@@ -1093,7 +1093,7 @@ struct BandPixel {
 // A camera sample's numbers, keyed by its pixel's index in the whole image (`pixel` indexes the
 // buffers, which start at image row frame.tile_row), so that a tiled image is the untiled one.
 fn pixel_sample_stream(pixel: u32, sample: u32) -> SampleStream {
-    return sample_stream(pixel + frame.tile_row * frame.width, sample, frame.seed);
+    return sample_stream(pixel + frame.tile_row * frame.width, frame.first_sample + sample, frame.seed);
 }
 
 fn band_pixel(gid: vec3u) -> BandPixel {

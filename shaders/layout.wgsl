@@ -92,7 +92,9 @@ struct FrameParams {
     // 1: no camera sample's direction ray waits for a later sample's pass (integrator.wgsl,
     // take_samples_waiting): set where samples cut short are taken again.
     finish_samples: u32,
-    _pad0: u32,
+    // The sequence index of a pixel's sample 0 (--first-sample): counts and sums stay per
+    // render, only the sample streams are offset (integrator.wgsl, pixel_sample_stream).
+    first_sample: u32,
     _pad1: u32,
     _pad2: u32,
 }

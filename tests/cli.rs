@@ -738,3 +738,169 @@ fn defaults_are_the_zoos_and_named_strategies_the_classic_ones() {
     expect(&settings_of("named-mis", &["--strategy", "mis"]), 32, 32, "balance", "each", 1);
     expect(&settings_of("defaults-bsdf", &["--light-selection", "bsdf", "--spp", "2"]), 1, 1, "power", "bsdf", 2);
 }
+
+/// A render split into ranges of camera samples and merged is the render of all of them: the
+/// same samples, summed in another order (f32 sums per part on the GPU, f64 in the merge), so
+/// the difference is float rounding, relMSE orders of magnitude below 1e-10 (one sample's noise
+/// at 64 spp is relMSE ~1e-2). A merge that dropped or doubled a part, or parts that took the
+/// wrong samples, would be off by the noise itself.
+#[test]
+fn a_merge_of_sample_ranges_is_the_whole_render() {
+    let dir = out_dir().join("merge");
+    std::fs::create_dir_all(&dir).unwrap();
+    let scene = assets("veach-mis.gltf");
+    let path = |name: &str| dir.join(name).to_str().unwrap().to_owned();
+    let render = |name: &str, first: &str, spp: &str| {
+        let o = veach(&[
+            "render",
+            &scene,
+            "-o",
+            &path(name),
+            "--width",
+            "96",
+            "--height",
+            "64",
+            "--first-sample",
+            first,
+            "--spp",
+            spp,
+            "-q",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    };
+    render("whole.exr", "0", "64");
+    render("a.exr", "0", "16");
+    render("b.exr", "16", "24");
+    render("c.exr", "40", "24");
+    let o = veach(&[
+        "merge",
+        &path("c.exr"),
+        &path("a.exr"),
+        &path("b.exr"),
+        "-o",
+        &path("merged.exr"),
+        "--expect-spp",
+        "64",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (_, _, whole) = veach::image_io::read_image(Path::new(&path("whole.exr"))).unwrap();
+    let (_, _, merged) = veach::image_io::read_image(Path::new(&path("merged.exr"))).unwrap();
+    let (_, _, first) = veach::image_io::read_image(Path::new(&path("a.exr"))).unwrap();
+    let relmse = veach::bench::error_metrics(&merged, &whole).relmse;
+    assert!(relmse < 1e-10, "merged against whole: relMSE {relmse:e}");
+    // The check has teeth: a part alone is the noise of its own samples away.
+    let part_relmse = veach::bench::error_metrics(&first, &whole).relmse;
+    assert!(part_relmse > 1e-6, "samples 0..16 against 0..64: relMSE {part_relmse:e}");
+    let header = veach::image_io::read_metadata(Path::new(&path("merged.exr"))).unwrap();
+    let value = |k: &str| header.iter().find(|(n, _)| n == k).map(|(_, v)| v.clone());
+    assert_eq!(value("veach:first_sample").as_deref(), Some("0"));
+    assert_eq!(value("veach:spp").as_deref(), Some("64.000"));
+    assert_eq!(value("veach:merged_parts").as_deref(), Some("3"));
+
+    // A missing part, an overlap, another seed or another scene: refused, naming what is wrong,
+    // and the output is left as it was.
+    let before = std::fs::read(path("merged.exr")).unwrap();
+    let o = veach(&[
+        "render",
+        &scene,
+        "-o",
+        &path("seed1.exr"),
+        "--width",
+        "96",
+        "--height",
+        "64",
+        "--first-sample",
+        "16",
+        "--spp",
+        "24",
+        "--seed",
+        "1",
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = veach(&[
+        "render",
+        &assets("cornell-box.gltf"),
+        "-o",
+        &path("other.exr"),
+        "--width",
+        "96",
+        "--height",
+        "64",
+        "--first-sample",
+        "16",
+        "--spp",
+        "24",
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    for (parts, expect, says) in [
+        (vec!["a.exr", "c.exr"], None, "samples 16..40 are missing"),
+        (vec!["a.exr", "b.exr"], Some("64"), "samples 40..64 are missing"),
+        (vec!["b.exr", "c.exr"], None, "samples 0..16 are missing"),
+        (vec!["a.exr", "b.exr", "b.exr", "c.exr"], None, "overlap"),
+        (vec!["a.exr", "seed1.exr", "c.exr"], None, "veach:seed is \"0\" against \"1\""),
+        (vec!["a.exr", "other.exr", "c.exr"], None, "veach:scene_hash"),
+    ] {
+        let mut args: Vec<String> = vec!["merge".into()];
+        args.extend(parts.iter().map(|p| path(p)));
+        args.extend(["-o".into(), path("merged.exr")]);
+        if let Some(n) = expect {
+            args.extend(["--expect-spp".into(), n.into()]);
+        }
+        let o = veach(&args.iter().map(String::as_str).collect::<Vec<_>>());
+        assert!(!o.status.success(), "{parts:?} merged");
+        assert!(stderr(&o).contains(says), "{parts:?}: {}", stderr(&o));
+    }
+    assert_eq!(std::fs::read(path("merged.exr")).unwrap(), before, "a refused merge changed the output");
+}
+
+/// A bench split into tasks (`--task I/N`, one per job of an array) merges into one results.csv
+/// and report.md with every scene; a missing task is named with its scenes.
+#[test]
+fn a_split_bench_merges_into_one_report() {
+    let dir = out_dir().join("bench-split");
+    let _ = std::fs::remove_dir_all(&dir);
+    let scenes = [assets("cornell-box.gltf"), assets("textured.gltf")];
+    let task_dir = |i: u32| dir.join(format!("task{i}")).to_str().unwrap().to_owned();
+    for i in 0..2 {
+        let task = format!("{i}/2");
+        let o = veach(&[
+            "bench",
+            &scenes[0],
+            &scenes[1],
+            "--task",
+            &task,
+            "-o",
+            &task_dir(i),
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--max-spp",
+            "1",
+            "--seeds",
+            "1",
+            "--strategies",
+            "light",
+            "--reference-spp",
+            "16",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let merged = dir.join("merged").to_str().unwrap().to_owned();
+    let o = veach(&["bench", "--merge", &task_dir(1), "-o", &merged]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("missing: task 0 of 2") && stderr(&o).contains("cornell-box.gltf"), "{}", stderr(&o));
+    let o = veach(&["bench", "--merge", &task_dir(1), &task_dir(0), "-o", &merged]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let csv = std::fs::read_to_string(dir.join("merged/results.csv")).unwrap();
+    assert_eq!(csv.lines().filter(|l| l.starts_with("scene,")).count(), 1, "{csv}");
+    for scene in ["cornell-box", "textured"] {
+        assert!(csv.lines().any(|l| l.starts_with(&format!("{scene},light,"))), "{scene} rows missing:\n{csv}");
+    }
+    let report = std::fs::read_to_string(dir.join("merged/report.md")).unwrap();
+    let sections: Vec<&str> = report.lines().filter(|l| l.starts_with("## ")).collect();
+    assert_eq!(sections, ["## cornell-box", "## textured"], "{report}");
+    assert!(dir.join("merged/textured-relmse.svg").exists());
+}

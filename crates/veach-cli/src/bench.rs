@@ -17,11 +17,23 @@ strategies trace about the same rays per sample. Render time is measured by GPU 
 has them (else wall clock), without kernel compilation or uploads.
 
 Writes DIR/results.csv, DIR/report.md, DIR/SCENE-relmse.svg (log-log relMSE against seconds) and \
-DIR/SCENE-equal-time.png (reference and every strategy at equal time, with an enlarged crop).")]
+DIR/SCENE-equal-time.png (reference and every strategy at equal time, with an enlarged crop).
+
+Split across machines: `--task I/N` benches the scenes I, I+N, I+2N ... of the list (scenes are \
+independent: each has its own reference and equal time) into a folder of its own; `veach bench --merge \
+DIR... -o OUT` checks that every task of the same command is there once and writes one results.csv and \
+report.md (scripts/slurm/bench-array.sbatch runs it as a Slurm job array).")]
 pub struct BenchArgs {
-    /// glTF scenes
+    /// glTF scenes; with --merge, the task folders to merge
     #[arg(required = true)]
     scenes: Vec<PathBuf>,
+    /// Bench only task I of N: the scenes I, I+N, I+2N ... (I from 0), for one task of a job
+    /// array; merge the tasks' folders with --merge
+    #[arg(long, value_name = "I/N", value_parser = parse_task)]
+    task: Option<(u32, u32)>,
+    /// Merge the folders of a split bench (`--task`) into the output folder
+    #[arg(long, conflicts_with = "task")]
+    merge: bool,
     /// Output directory
     #[arg(short, long, default_value = "bench-out")]
     output: PathBuf,
@@ -70,7 +82,32 @@ pub struct BenchArgs {
     adapter: Option<String>,
 }
 
+/// `I/N` with I < N.
+fn parse_task(text: &str) -> Result<(u32, u32), String> {
+    let (i, n) = text.split_once('/').ok_or("expected I/N, e.g. 0/4")?;
+    let (i, n): (u32, u32) = (i.parse().map_err(|_| "I is not a number")?, n.parse().map_err(|_| "N is not a number")?);
+    if i >= n {
+        return Err(format!("task {i} of {n}: I counts from 0 to N-1"));
+    }
+    Ok((i, n))
+}
+
+/// What a task of a split bench records in its folder (`TASK_FILE`) for `--merge`: which task
+/// it is, and the command's scenes and settings, which every task of one bench shares.
+#[derive(serde::Serialize, serde::Deserialize, PartialEq)]
+struct BenchTask {
+    task: u32,
+    tasks: u32,
+    scenes: Vec<String>,
+    settings: String,
+}
+
+const TASK_FILE: &str = "bench-task.json";
+
 pub fn bench(args: BenchArgs) -> Result<()> {
+    if args.merge {
+        return merge_tasks(&args.scenes, &args.output);
+    }
     use veach::bench::Budget;
     use veach::bench_run::{BenchConfig, bench_scene, bench_units, csv, read_given_reference, slope_warnings};
     if args.width == 0 || args.height == 0 || args.max_spp == 0 || args.seeds == 0 {
@@ -99,6 +136,16 @@ pub fn bench(args: BenchArgs) -> Result<()> {
     if args.reference.is_some() && args.scenes.len() > 1 {
         bail!("--reference is one scene's reference; bench one scene with it, or leave it out to render each one");
     }
+    let all_scenes = args.scenes.clone();
+    let scene_paths: Vec<PathBuf> = match args.task {
+        Some((i, n)) => {
+            if n as usize > all_scenes.len() {
+                bail!("--task {i}/{n}: {} scene(s) make at most {} tasks", all_scenes.len(), all_scenes.len());
+            }
+            all_scenes.iter().skip(i as usize).step_by(n as usize).cloned().collect()
+        }
+        None => all_scenes.clone(),
+    };
     std::fs::create_dir_all(&args.output).with_context(|| format!("cannot create {}", args.output.display()))?;
     // The scenes and the reference are read first: a bad file fails before any time is spent.
     let config = BenchConfig {
@@ -120,7 +167,7 @@ pub fn bench(args: BenchArgs) -> Result<()> {
         out_dir: args.output.clone(),
     };
     let mut scenes = Vec::new();
-    for path in &args.scenes {
+    for path in &scene_paths {
         let scene = veach::load_gltf(path)?;
         let camera = scene.camera(None).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
         if scene.lights.is_empty() {
@@ -190,6 +237,26 @@ pub fn bench(args: BenchArgs) -> Result<()> {
     };
     write_text("results.csv", &csv(&rows))?;
     write_text("report.md", &report)?;
+    if let Some((task, tasks)) = args.task {
+        let record = BenchTask {
+            task,
+            tasks,
+            scenes: all_scenes.iter().map(|p| p.display().to_string()).collect(),
+            settings: format!(
+                "{}x{} budgets {:?} seeds {} strategies {} reference {} spp{} hide_emitters {} equal_time {:?}",
+                config.width,
+                config.height,
+                config.budgets,
+                config.seeds,
+                counts.join(", "),
+                config.reference_spp,
+                args.reference.as_ref().map(|p| format!(" ({})", p.display())).unwrap_or_default(),
+                config.hide_emitters,
+                config.equal_time
+            ),
+        };
+        write_text(TASK_FILE, &serde_json::to_string_pretty(&record)?)?;
+    }
 
     outln!("{:<16} {:<12} {:>10} {:>12} {:>8}", "scene", "strategy", "spp", "relMSE", "slope");
     for b in &summaries {
@@ -215,4 +282,101 @@ pub fn bench(args: BenchArgs) -> Result<()> {
 /// Whether `t` seconds make a `Duration` (finite, not negative, not beyond u64 seconds).
 fn seconds(t: f64) -> bool {
     Duration::try_from_secs_f64(t).is_ok()
+}
+
+/// `veach bench --merge`: the folders of one split bench, checked to be every task of the same
+/// command once, into `out`: results.csv (one header, the tasks' rows in scene order), report.md
+/// (the first task's preamble, then every scene's section in the command's scene order) and the
+/// plots and images beside them.
+fn merge_tasks(dirs: &[PathBuf], out: &std::path::Path) -> Result<()> {
+    let mut tasks: Vec<(BenchTask, &PathBuf)> = Vec::new();
+    for dir in dirs {
+        let path = dir.join(TASK_FILE);
+        let text = std::fs::read_to_string(&path).with_context(|| {
+            format!("{}: not the folder of a `veach bench --task` run (no {TASK_FILE})", dir.display())
+        })?;
+        let task: BenchTask = serde_json::from_str(&text).with_context(|| format!("{}: malformed", path.display()))?;
+        if let Some((first, first_dir)) = tasks.first()
+            && (first.tasks, &first.scenes, &first.settings) != (task.tasks, &task.scenes, &task.settings)
+        {
+            bail!(
+                "{} and {} are tasks of different benches (scenes, settings or task counts differ)",
+                first_dir.display(),
+                dir.display()
+            );
+        }
+        if let Some((_, other)) = tasks.iter().find(|(t, _)| t.task == task.task) {
+            bail!("{} and {} are both task {} of {}", other.display(), dir.display(), task.task, task.tasks);
+        }
+        tasks.push((task, dir));
+    }
+    let Some((first, _)) = tasks.first() else { bail!("no folders to merge") };
+    let (count, scenes) = (first.tasks, first.scenes.clone());
+    let missing: Vec<String> = (0..count)
+        .filter(|i| !tasks.iter().any(|(t, _)| t.task == *i))
+        .map(|i| {
+            let of: Vec<&str> = scenes.iter().skip(i as usize).step_by(count as usize).map(String::as_str).collect();
+            format!("task {i} of {count} ({})", of.join(", "))
+        })
+        .collect();
+    if !missing.is_empty() {
+        bail!("missing: {}; rerun them and merge again", missing.join("; "));
+    }
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    // Scene k is task k % N's (k / N)-th section and rows.
+    tasks.sort_by_key(|(t, _)| t.task);
+    let mut csv_header = None;
+    let mut rows_of: Vec<Vec<String>> = Vec::new();
+    let mut sections_of: Vec<Vec<String>> = Vec::new();
+    let mut preamble = String::new();
+    for (task, dir) in &tasks {
+        let csv = std::fs::read_to_string(dir.join("results.csv"))
+            .with_context(|| format!("{}: no results.csv", dir.display()))?;
+        let mut lines = csv.lines();
+        let header = lines.next().unwrap_or_default().to_owned();
+        if csv_header.get_or_insert_with(|| header.clone()) != &header {
+            bail!("{}: results.csv has other columns than the first task's", dir.display());
+        }
+        rows_of.push(lines.map(str::to_owned).collect());
+        let report = std::fs::read_to_string(dir.join("report.md"))
+            .with_context(|| format!("{}: no report.md", dir.display()))?;
+        let mut parts = report.split("\n## ");
+        let head = parts.next().unwrap_or_default();
+        if task.task == 0 {
+            preamble = head.to_owned();
+        }
+        sections_of.push(parts.map(|s| format!("## {s}")).collect());
+        for entry in std::fs::read_dir(dir).with_context(|| format!("cannot read {}", dir.display()))?.flatten() {
+            let name = entry.file_name();
+            let keep = name.to_str().is_some_and(|n| n.ends_with(".svg") || n.ends_with("-equal-time.png"));
+            if keep {
+                std::fs::copy(entry.path(), out.join(&name))
+                    .with_context(|| format!("cannot copy {}", entry.path().display()))?;
+            }
+        }
+    }
+    let mut report = preamble;
+    for k in 0..scenes.len() {
+        let (task, nth) = (k % count as usize, k / count as usize);
+        if let Some(section) = sections_of[task].get(nth) {
+            report.push('\n');
+            report.push_str(section);
+        }
+    }
+    let mut csv = csv_header.unwrap_or_default();
+    csv.push('\n');
+    for rows in &rows_of {
+        for row in rows {
+            csv.push_str(row);
+            csv.push('\n');
+        }
+    }
+    for (name, text) in [("results.csv", &csv), ("report.md", &report)] {
+        veach::image_io::write_atomically(&out.join(name), |f| {
+            use std::io::Write;
+            f.write_all(text.as_bytes()).map_err(|e| e.to_string())
+        })?;
+    }
+    errln!("merged {} tasks ({} scenes) into {}", tasks.len(), scenes.len(), out.join("report.md").display());
+    Ok(())
 }

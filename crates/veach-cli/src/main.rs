@@ -3,6 +3,7 @@
 
 mod bench;
 mod console;
+mod merge;
 mod options;
 mod render;
 mod scale;
@@ -12,6 +13,7 @@ mod view;
 use bench::BenchArgs;
 use clap::{Parser, Subcommand};
 use console::errln;
+use merge::MergeArgs;
 use render::RenderArgs;
 use scale::ScaleArgs;
 use scene_tools::{export_mitsuba, generate, info};
@@ -33,6 +35,8 @@ struct Cli {
 enum Command {
     /// Render a glTF scene (.gltf or .glb) to an image.
     Render(RenderArgs),
+    /// Add renders of disjoint ranges of camera samples (`render --first-sample`) into one image
+    Merge(MergeArgs),
     /// Open a scene in the interactive viewer: progressive render, strategy toggles, error plot.
     View(ViewArgs),
     /// Measure error against render time for every strategy (results.csv, plots, report.md).
@@ -85,6 +89,7 @@ fn main() {
     quiet_mesa_runtime_dir_warning();
     let result = match cli.command {
         Command::Render(args) => render::render(args),
+        Command::Merge(args) => merge::merge(args),
         Command::View(args) => view::view(args),
         Command::Bench(args) => bench::bench(args),
         Command::Scale(args) => scale::scale(args),

@@ -40,6 +40,12 @@ SAMPLE COUNTS
   --light-samples lights are chosen (one per sample). Each count is at most 1048576 (2^20) per
   camera sample; more samples than that are more camera samples.
 
+SPLITTING
+  Camera samples are independent: `--first-sample 0 --spp 16`, `--first-sample 16 --spp 48` and
+  `veach merge` of the two EXR files give the `--spp 64` render (up to float rounding). Each EXR
+  records its range, the scene's content hash and every setting; the merge refuses parts that
+  differ or whose ranges overlap or leave a gap. docs/scale-out.md runs it as a Slurm job array.
+
 OUTPUT
   By extension: .exr (linear float RGB), .png (8-bit sRGB after --exposure, clamped), .pfm.
   EXR and PNG headers record the settings that made the image (veach:* text).
@@ -58,6 +64,11 @@ pub struct RenderArgs {
     /// Camera samples per pixel [default: 32; 1 with --strategy; unlimited with --time-limit]
     #[arg(long)]
     spp: Option<u32>,
+    /// Take camera samples K .. K+spp-1 of the sequence a render from 0 takes: renders of
+    /// disjoint ranges, on one machine or many, add up with `veach merge` to the render of them
+    /// all (see SPLITTING below)
+    #[arg(long, value_name = "K", default_value_t = 0)]
+    first_sample: u32,
     /// The estimator [default: mis 1 + 1, see DEFAULTS below]
     #[arg(long, value_enum)]
     strategy: Option<StrategyArg>,
@@ -176,10 +187,11 @@ pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
     let spp = match (args.spp, time_limit) {
         (Some(0), _) => bail!("--spp must be at least 1"),
         (Some(n), _) => n,
-        (None, Some(_)) => u32::MAX,
+        (None, Some(_)) => u32::MAX - args.first_sample,
         (None, None) if named => 1,
         (None, None) => DEFAULT_SPP,
     };
+    veach::settings::check_sample_range(args.first_sample, spp)?;
     match strategy {
         Strategy::Uniform | Strategy::Brdf if brdf_samples == 0 => {
             bail!("--brdf-samples must be at least 1 for {}", strategy.name())
@@ -199,6 +211,7 @@ pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
         width: args.width,
         height: args.height,
         spp,
+        first_sample: args.first_sample,
         strategy,
         light_samples,
         brdf_samples,
@@ -350,7 +363,7 @@ pub fn render(args: RenderArgs) -> Result<()> {
     }
 
     // What made the image, in an EXR or PNG file's header (`veach::image_io::read_metadata`).
-    let metadata = veach::stats::image_metadata(&settings, &camera, &args.scene, &out, &renderer);
+    let metadata = veach::stats::image_metadata(&settings, &camera, &args.scene, &scene, &out, &renderer);
     veach::image_io::write_image_with_metadata(
         &args.output,
         out.width,

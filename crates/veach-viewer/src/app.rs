@@ -322,8 +322,9 @@ impl ViewerApp {
         let nothing = || veach::Error::Options("nothing rendered yet".into());
         let out = self.session.latest().ok_or_else(nothing)?;
         let (settings, camera) = self.current.as_ref().ok_or_else(nothing)?;
-        let scene = &self.session.loaded.path;
-        let metadata = veach::stats::image_metadata(settings, camera, scene, out, &self.session.renderer);
+        let loaded = &self.session.loaded;
+        let metadata =
+            veach::stats::image_metadata(settings, camera, &loaded.path, &loaded.scene, out, &self.session.renderer);
         veach::image_io::write_image_with_metadata(
             path,
             out.width,

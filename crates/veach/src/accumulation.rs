@@ -164,6 +164,7 @@ impl Accumulation {
             return Err(Error::Options(format!("rows {rows:?} are not a tile of {} rows", image.height)));
         }
         crate::settings::check_sample_counts(image.light_samples, image.brdf_samples)?;
+        crate::settings::check_sample_range(image.first_sample, image.spp)?;
         let settings = &RenderSettings { height: rows.len() as u32, ..image.clone() };
         let (w, h) = (settings.width, settings.height);
         let pixels = w as u64 * h as u64;

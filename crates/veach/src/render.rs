@@ -498,6 +498,7 @@ impl Renderer {
             height: s.height,
             image_height: s.height,
             seed: s.seed,
+            first_sample: s.first_sample,
             strategy: match strategy {
                 Strategy::Uniform => layout::STRATEGY_UNIFORM,
                 Strategy::Brdf => layout::STRATEGY_BRDF,

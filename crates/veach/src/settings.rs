@@ -145,6 +145,10 @@ pub struct RenderSettings {
     /// Camera samples per pixel. Each one takes `light_samples` light samples and
     /// `brdf_samples` BRDF samples (uniform: `brdf_samples` hemisphere directions).
     pub spp: u32,
+    /// The sequence index of each pixel's first camera sample: the render takes samples
+    /// [first_sample, first_sample + spp) of the sequence a render from 0 takes, so that renders
+    /// of disjoint ranges (on other machines) merge into one (`veach merge`).
+    pub first_sample: u32,
     pub strategy: Strategy,
     pub light_samples: u32,
     pub brdf_samples: u32,
@@ -193,6 +197,7 @@ impl Default for RenderSettings {
             width: 256,
             height: 256,
             spp: 1,
+            first_sample: 0,
             strategy: Strategy::Mis,
             light_samples,
             brdf_samples,
@@ -228,6 +233,17 @@ pub fn check_image_size(width: u32, height: u32) -> Result<()> {
     if pixels > MAX_IMAGE_PIXELS {
         return Err(Error::Options(format!(
             "{width}x{height} is {pixels} pixels; veach renders at most {MAX_IMAGE_PIXELS} (16384x16384)"
+        )));
+    }
+    Ok(())
+}
+
+/// Refuses a range of camera samples that runs past the sequence's 2^32 indices.
+pub fn check_sample_range(first_sample: u32, spp: u32) -> Result<()> {
+    if first_sample.checked_add(spp).is_none() {
+        return Err(Error::Options(format!(
+            "samples {first_sample} + {spp} run past the last camera sample index ({})",
+            u32::MAX
         )));
     }
     Ok(())

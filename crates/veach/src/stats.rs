@@ -56,6 +56,8 @@ pub struct SettingsReport {
     pub control_variate: bool,
     pub sampler: String,
     pub seed: u32,
+    /// The sequence index of each pixel's first camera sample (`--first-sample`).
+    pub first_sample: u32,
     pub camera: String,
 }
 
@@ -73,6 +75,7 @@ impl SettingsReport {
             control_variate: settings.control_variate,
             sampler: settings.sampler.name().into(),
             seed: settings.seed,
+            first_sample: settings.first_sample,
             camera: camera_name.into(),
         }
     }
@@ -98,6 +101,7 @@ pub fn image_metadata(
     settings: &RenderSettings,
     camera: &Camera,
     scene_path: &std::path::Path,
+    scene: &Scene,
     out: &RenderOutput,
     renderer: &Renderer,
 ) -> Vec<(String, String)> {
@@ -111,6 +115,7 @@ pub fn image_metadata(
         ("camera_yfov_degrees".into(), camera.yfov.to_degrees().to_string()),
         ("version".into(), env!("CARGO_PKG_VERSION").to_string()),
         ("scene".into(), scene_path.display().to_string()),
+        ("scene_hash".into(), format!("{:016x}", scene.content_hash())),
         ("hide_emitters".into(), settings.hide_emitters.to_string()),
         ("spp".into(), format!("{:.3}", out.mean_samples())),
         ("render_seconds".into(), format!("{:.6}", out.render_time.as_secs_f64())),

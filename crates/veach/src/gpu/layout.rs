@@ -92,7 +92,11 @@ pub struct FrameParams {
     /// 1: no camera sample's direction ray waits for a later sample's pass (`take_samples_waiting`
     /// in integrator.wgsl): set where samples cut short are taken again.
     pub finish_samples: u32,
-    pub _pad: [u32; 3],
+    /// The camera sample index of a pixel's sample 0: a render of samples [first_sample,
+    /// first_sample + spp) of the one sample sequence (`--first-sample`, for renders split
+    /// across machines and merged).
+    pub first_sample: u32,
+    pub _pad: [u32; 2],
 }
 
 #[repr(C)]
@@ -333,7 +337,8 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             tile_row,
             emitter_max,
             image_height,
-            finish_samples
+            finish_samples,
+            first_sample
         }),
         layout!(BvhNode { origin, exponents, low, lights_01, high, lights_23, children }),
         layout!(Vertex { p, normal }),

@@ -2,6 +2,7 @@
 //! Loaded from glTF by `gltf_loader`; independent of the GPU layout.
 
 mod camera;
+mod content_hash;
 mod gltf_loader;
 mod gltf_resources;
 mod texture;
