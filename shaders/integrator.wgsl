@@ -147,7 +147,7 @@ struct LightSampleEval {
 fn trace_light_sample(c: ShadingContext, index: u32, p_select: f32, u: vec2f, rays: ptr<function, u32>) -> LightSampleEval {
     var r = LightSampleEval(vec3f(0.0), 0.0, false, vec3f(0.0), vec3f(0.0), vec3f(0.0));
     let ls = sample_light(index, c.s.p, u);
-    if ls.pdf <= 0.0 {
+    if ls.pdf <= 0.0 || !(p_select > 0.0) {
         return r;
     }
     let wi = frame_to_local(c.frame, ls.wi);
@@ -247,10 +247,10 @@ struct LightChoice {
 fn choose_light(plan: SamplePlan, k: u32, stream: ptr<function, SampleStream>) -> LightChoice {
     var ch = LightChoice(k / plan.n, 1.0, sample_2d(stream));
     if frame.light_selection != SELECT_EACH {
-        let pick = select_light(ch.u.x);
-        ch.index = pick.index;
-        ch.u.x = pick.u;
-        ch.p_select = light_selection_pdf(pick.index);
+        let chosen = select_light_with_pmf(ch.u.x);
+        ch.index = chosen.pick.index;
+        ch.u.x = chosen.pick.u;
+        ch.p_select = chosen.pmf;
     }
     return ch;
 }
@@ -318,7 +318,7 @@ fn cone_light_sample(c: ShadingContext, plan: SamplePlan, k: u32, light_dim: u32
     var d = DirectionSample(c.s.ns, 0.0, vec3f(0.0), false, false, NO_LIGHT);
     var light_stream = SampleStream(stream.index, stream.seed, light_dim + k);
     let ch = choose_light(plan, k, &light_stream);
-    if !traced_as_direction(ch) {
+    if !traced_as_direction(ch) || !(ch.p_select > 0.0) {
         return d;
     }
     let cone = bounding_cone(light_at(ch.index), c.s.p);

@@ -17,6 +17,7 @@ const SELECT_EACH: u32 = 0u;
 const SELECT_UNIFORM: u32 = 1u;
 const SELECT_POWER: u32 = 2u;
 const SELECT_BSDF: u32 = 3u;
+const SELECT_TREE: u32 = 4u;
 
 const LIGHT_SAMPLING_AREA: u32 = 0u;
 const LIGHT_SAMPLING_SOLID_ANGLE: u32 = 1u;
@@ -95,8 +96,10 @@ struct FrameParams {
     // The sequence index of a pixel's sample 0 (--first-sample): counts and sums stay per
     // render, only the sample streams are offset (integrator.wgsl, pixel_sample_stream).
     first_sample: u32,
-    _pad1: u32,
-    _pad2: u32,
+    // SELECT_TREE: the light tree's nodes (0: none), then this many directional lights' leaves
+    // (light_tree.wgsl).
+    light_tree_nodes: u32,
+    directional_lights: u32,
 }
 
 // A node of the 4-wide BVH, 64 bytes (crates/veach/src/gpu/bvh_nodes.rs): up to four children's
@@ -241,8 +244,29 @@ struct LightPick {
     pdf: f32,
     alias_prob: f32,
     alias_index: u32,
-    _pad0: u32,
+    // The light's path down the light tree: bit d set where it takes the second child at depth d.
+    tree_trail: u32,
 }
+
+// A node of the light tree (crates/veach/src/light_tree.rs): the bounds of the lights below it
+// (a box, their power, normals within acos(cos_o) of axis, each emitting up to acos(cos_e) off its
+// normal) and its first child (the second follows it) or, in a leaf, its light.
+struct LightTreeNode {
+    min: vec3f,
+    phi: f32,
+    max: vec3f,
+    cos_o: f32,
+    axis: vec3f,
+    cos_e: f32,
+    child_or_light: u32,
+    // LIGHT_TREE_LEAF, LIGHT_TREE_TWO_SIDED
+    flags: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+const LIGHT_TREE_LEAF: u32 = 1u;
+const LIGHT_TREE_TWO_SIDED: u32 = 2u;
 
 // Parameters of the test kernels (shaders/test_kernels.wgsl).
 struct TestParams {

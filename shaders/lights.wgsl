@@ -72,6 +72,9 @@ fn light_importance(index: u32, x: vec3f, shading: Frame, wo: vec3f, bsdf: BsdfP
 // times the second moment of choosing by power (the sample's weight 1/P is at most 1/a times its
 // weight there).
 fn prepare_point_selection(x: vec3f, shading: Frame, wo: vec3f, bsdf: BsdfParams) {
+    // SELECT_TREE: the point and its shading normal, which the tree's walks read.
+    tree_point = x;
+    tree_normal = shading.n;
     if !uses_point_selection() {
         return;
     }
@@ -130,6 +133,9 @@ fn light_selection_pdf(index: u32) -> f32 {
     }
     if uses_point_selection() {
         return point_selection[min(index, MAX_POINT_SELECTION_LIGHTS - 1u)];
+    }
+    if uses_light_tree() {
+        return light_tree_pmf(index);
     }
     switch frame.light_selection {
         case SELECT_UNIFORM: {
@@ -205,11 +211,30 @@ fn select_light(u: f32) -> DiscretePick {
     if uses_point_selection() {
         return select_light_at_point(u);
     }
+    if uses_light_tree() {
+        return select_light_from_tree(u).pick;
+    }
     if frame.light_selection == SELECT_POWER || frame.light_selection == SELECT_BSDF {
         return select_light_by_power(u);
     }
     let b = alias_bucket(u, light_count());
     return DiscretePick(b.index, remap_below(b.frac, 1.0));
+}
+
+// A light chosen by the frame's selection, and the probability of choosing it.
+struct SelectedLight {
+    pick: DiscretePick,
+    pmf: f32,
+}
+
+// select_light and light_selection_pdf in one: the tree's walk gives the probability as it goes,
+// where light_selection_pdf would walk the tree again.
+fn select_light_with_pmf(u: f32) -> SelectedLight {
+    if uses_light_tree() {
+        return select_light_from_tree(u);
+    }
+    let pick = select_light(u);
+    return SelectedLight(pick, light_selection_pdf(pick.index));
 }
 
 // A triangle of `light` with probability proportional to its area, by the light's alias table (as

@@ -120,8 +120,12 @@ fn run_test(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) 
             test_out[i] = vec4f(sample_2d(&stream), 0.0, 0.0);
         }
         case TEST_SELECT_LIGHT: {
-            let index = select_light(u.x).index;
-            test_out[i] = vec4f(f32(index), light_selection_pdf(index), 0.0, 0.0);
+            // For SELECT_TREE: the point, and `wo` as its normal.
+            tree_point = test.point;
+            tree_normal = test.wo;
+            let chosen = select_light_with_pmf(u.x);
+            let index = chosen.pick.index;
+            test_out[i] = vec4f(f32(index), light_selection_pdf(index), chosen.pmf, 0.0);
         }
         case TEST_PDF_UNIFORM: {
             test_out[i] = vec4f(select(0.0, uniform_hemisphere_pdf(), test_in[i].z > 0.0), 0.0, 0.0, 0.0);

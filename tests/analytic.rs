@@ -214,10 +214,91 @@ fn area_and_point_light_on_a_lambertian_plane_match_the_closed_form() {
         ("light-bsdf", settings(Strategy::Light, 32, 16, 0, LightSelection::Bsdf, balance), &both),
         ("mis-bsdf", settings(Strategy::Mis, 32, 8, 8, LightSelection::Bsdf, power), &both),
         ("mis-lobes-bsdf", settings(Strategy::MisLobes, 32, 8, 8, LightSelection::Bsdf, balance), &both),
+        // Lights chosen per point by the light tree (two leaves here).
+        ("light-tree", settings(Strategy::Light, 32, 16, 0, LightSelection::Tree, balance), &both),
+        ("mis-tree", settings(Strategy::Mis, 32, 8, 8, LightSelection::Tree, power), &both),
     ];
     let cases: Vec<Case> =
         cases.into_iter().map(|(n, s, e)| Case { name: n.into(), settings: s, expected: e.clone() }).collect();
     check_cases("area-and-point", &scene, &cases);
+}
+
+/// Many lights over the plane, chosen by the light tree: 48 quads facing down in one plane at
+/// height 1 (each in a cell of its own, so that none shades another), their radiances over three
+/// decades; 3 point lights below them; and two quads that add nothing (one beside them facing
+/// up, one under the plane), which the tree must give no probability without losing the others.
+/// The closed form is the sum of each light's. Light sampling and MIS by the tree must match it,
+/// as selection by power does; a path probability that differed between the tree's walk and the
+/// MIS weight's retracing, or a light the walk could not reach, would shift regions by many σ.
+#[test]
+fn many_lights_chosen_by_the_tree_match_the_closed_form() {
+    let mut rng = veach::assets::SplitMix64(11);
+    let mut r = move || rng.next_f32() as f64;
+    let mut g = GltfBuilder::new();
+    plane(&mut g);
+    let mut quads = Vec::new();
+    let h = 1.0;
+    for i in 0..49 {
+        if i == 24 {
+            continue; // the middle cell: the quad facing up
+        }
+        let (cx, cz) = ((i % 7) as f64 * 0.5 - 1.5, (i / 7) as f64 * 0.5 - 1.5);
+        let (w, d) = (0.03 + r() * 0.2, 0.03 + r() * 0.2);
+        let le = 10f64.powf(r() * 3.0 - 1.0);
+        quads.push((cx - w, cx + w, cz - d, cz + d, h, le));
+        let m = g.material(&MaterialDesc::emitter(&format!("light {i}"), Vec3::splat(le as f32)));
+        let (x0, x1, z0, z1, h) = ((cx - w) as f32, (cx + w) as f32, (cz - d) as f32, (cz + d) as f32, h as f32);
+        let quad = MeshData::quad(
+            Vec3::new(x0, h, z0),
+            Vec3::new(x1, h, z0),
+            Vec3::new(x1, h, z1),
+            Vec3::new(x0, h, z1),
+            -Vec3::Y,
+        );
+        g.add_mesh(&format!("light {i}"), &quad, m, glam::Mat4::IDENTITY);
+    }
+    for (name, y) in [("facing up", 1.0f32), ("under the plane", -0.5)] {
+        let m = g.material(&MaterialDesc::emitter(name, Vec3::splat(1000.0)));
+        let quad = MeshData::quad(
+            Vec3::new(-0.2, y, -0.2),
+            Vec3::new(-0.2, y, 0.2),
+            Vec3::new(0.2, y, 0.2),
+            Vec3::new(0.2, y, -0.2),
+            Vec3::Y,
+        );
+        g.add_mesh(name, &quad, m, glam::Mat4::IDENTITY);
+    }
+    let points =
+        [(Vec3::new(0.4, 0.9, -0.2), 0.3f32), (Vec3::new(-0.6, 0.7, 0.5), 2.0), (Vec3::new(0.1, 0.95, 0.9), 5.0)];
+    for (i, (p, intensity)) in points.iter().enumerate() {
+        g.punctual_light(&format!("point {i}"), Punctual::Point, Vec3::splat(*intensity), *p, Vec3::ZERO);
+    }
+    let scene = load(&g, "analytic-many-lights");
+    let camera = plane_camera();
+    let expected = expected_image(&camera, |x, z| {
+        let quads: f64 =
+            quads.iter().map(|&(x0, x1, z0, z1, h, le)| le * rect_form_factor(x, z, x0, x1, z0, z1, h)).sum();
+        let points: f64 = points
+            .iter()
+            .map(|(p, i)| {
+                let d = Vec3::new(p.x - x as f32, p.y, p.z - z as f32).as_dvec3();
+                let r2 = d.length_squared();
+                *i as f64 * (d.y / r2.sqrt()) / r2 / PI
+            })
+            .sum();
+        ALBEDO * quads + ALBEDO * points
+    });
+    use LightSelection::{Power, Tree};
+    let (balance, power) = (Heuristic::Balance, Heuristic::Power);
+    let cases = [
+        ("light-tree", settings(Strategy::Light, 32, 8, 0, Tree, balance)),
+        ("mis-tree", settings(Strategy::Mis, 32, 4, 4, Tree, power)),
+        ("mis-lobes-tree", settings(Strategy::MisLobes, 32, 4, 4, Tree, balance)),
+        ("mis-power", settings(Strategy::Mis, 32, 4, 4, Power, power)),
+    ];
+    let cases: Vec<Case> =
+        cases.into_iter().map(|(n, s)| Case { name: n.into(), settings: s, expected: expected.clone() }).collect();
+    check_cases("many-lights", &scene, &cases);
 }
 
 /// The unshadowed light as a control variate (shaders/control_variate.wgsl) on a plane that sees

@@ -635,6 +635,95 @@ fn light_selection_matches_its_probabilities() {
     }
 }
 
+/// The light tree's choice at a shading point (SELECT_TREE): 40 lights of every kind (quads in
+/// several orientations, one two-sided, points, spots, a directional light and one without
+/// power) seen from three points and normals. At each, the frequencies must fit the probabilities
+/// the walk reports (chi-square, as above); the walk's probability must equal the one retraced
+/// down the light's path for MIS weights (the same float operations: 1e-6 relative) and the
+/// host's copy of the tree (`LightTree::pmf`, 1e-4 relative: f32 rounding along ~6 levels); the
+/// host's probabilities of all lights sum to 1; the light without power is never chosen.
+#[test]
+fn the_light_tree_chooses_lights_with_the_probabilities_it_reports() {
+    let mut rng = veach::assets::SplitMix64(5);
+    let mut r = move || rng.next_f32();
+    let mut g = GltfBuilder::new();
+    let mut n_lights = 0;
+    for i in 0..24 {
+        let c = Vec3::new(r() * 4.0 - 2.0, r() * 2.0 + 0.5, r() * 4.0 - 2.0);
+        let normal = Vec3::new(r() - 0.5, -1.0 + r(), r() - 0.5).normalize();
+        let t = normal.any_orthonormal_vector() * (0.05 + r() * 0.3);
+        let b = normal.cross(t);
+        let quad = MeshData::quad(c - t - b, c + t - b, c + t + b, c - t + b, normal);
+        let mut desc = MaterialDesc::emitter(&format!("quad {i}"), Vec3::splat(10f32.powf(r() * 3.0)));
+        desc.double_sided = i == 3;
+        let m = g.material(&desc);
+        g.add_mesh(&format!("quad {i}"), &quad, m, glam::Mat4::IDENTITY);
+        n_lights += 1;
+    }
+    use veach::assets::gltf_writer::Punctual;
+    for i in 0..14 {
+        let p = Vec3::new(r() * 4.0 - 2.0, r() * 2.0 + 0.5, r() * 4.0 - 2.0);
+        let kind = if i % 2 == 0 { Punctual::Point } else { Punctual::Spot { inner: 0.3, outer: 0.6 } };
+        let power = if i == 5 { 0.0 } else { 10f32.powf(r() * 3.0) };
+        g.punctual_light(&format!("delta {i}"), kind, Vec3::splat(power), p, p + Vec3::new(r() - 0.5, -1.0, r() - 0.5));
+        n_lights += 1;
+    }
+    g.punctual_light("sun", Punctual::Directional, Vec3::splat(2.0), Vec3::ZERO, Vec3::new(0.1, -1.0, 0.2));
+    n_lights += 1;
+    let host_scene = load(&g, "chi2-light-tree");
+    let scene = upload(&host_scene);
+    let tree = veach::gpu::scene_buffers::scene_light_tree(
+        &host_scene,
+        &veach::gpu::scene_buffers::selection_powers(&host_scene),
+    );
+    let directional: Vec<bool> =
+        host_scene.lights.iter().map(|l| matches!(l.kind, veach::scene::LightKind::Directional { .. })).collect();
+    let powerless = host_scene
+        .lights
+        .iter()
+        .position(|l| matches!(l.kind, veach::scene::LightKind::Spot { intensity, .. } if intensity == Vec3::ZERO));
+    let views = [
+        (Vec3::new(0.0, 0.0, 0.0), Vec3::Y),
+        (Vec3::new(1.5, 0.2, -1.0), Vec3::new(-1.0, 1.0, 0.3).normalize()),
+        (Vec3::new(-1.0, 1.5, 1.0), Vec3::new(0.2, -1.0, 0.1).normalize()),
+    ];
+    for (k, (point, normal)) in views.into_iter().enumerate() {
+        let host: Vec<f64> = (0..n_lights).map(|i| tree.pmf(i as u32, directional[i], point, normal) as f64).collect();
+        let sum: f64 = host.iter().sum();
+        assert!((sum - 1.0).abs() < 1e-4, "view {k}: the host's probabilities sum to {sum}");
+        let params = TestParams {
+            routine: routine::SELECT_LIGHT,
+            count: SAMPLES,
+            seed: 3 + k as u32,
+            point: point.to_array(),
+            wo: normal.to_array(),
+            ..Default::default()
+        };
+        let (light_tree_nodes, directional_lights) = scene.light_tree_counts();
+        let frame =
+            FrameParams { light_tree_nodes, directional_lights, ..frame(n_lights as u32, layout::SELECT_TREE, 0) };
+        let out = kernel().run(&scene, &frame, &params, &[], 1).unwrap();
+        let mut observed = vec![0.0; n_lights];
+        for [index, retraced, walked, _] in out {
+            let i = index as usize;
+            assert!(Some(i) != powerless, "view {k}: the light without power was chosen");
+            assert!((retraced - walked).abs() <= 1e-6 * walked, "view {k}, light {i}: walk {walked}, path {retraced}");
+            assert!(
+                (walked as f64 - host[i]).abs() <= 1e-4 * host[i],
+                "view {k}, light {i}: GPU {walked}, host {}",
+                host[i]
+            );
+            observed[i] += 1.0;
+        }
+        let expected: Vec<f64> = host.iter().map(|p| p * SAMPLES as f64).collect();
+        let (p_value, _) = chi_square(&observed, &expected);
+        if p_value < 0.01 / views.len() as f64 {
+            write_histograms(&format!("light tree view {k}"), &observed, &expected, 1, n_lights);
+            panic!("view {k}: chi-square p = {p_value:.2e}; observed {observed:?}, expected {expected:?}");
+        }
+    }
+}
+
 /// The glTF 2.0 Appendix B BRDF (with KHR_materials_specular's weighting) in f64 on the host:
 /// an independent reference for the furnace integrals below, written from the specification.
 fn reference_brdf(base: f64, metallic: f64, roughness: f64, specular: f64, wo: DVec3, wi: DVec3) -> f64 {

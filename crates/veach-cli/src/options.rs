@@ -55,6 +55,9 @@ pub enum SelectionArg {
     /// One light per sample, chosen per shading point: a quarter by power, three quarters by
     /// power times the BSDF towards the light (by power beyond 16 lights)
     Bsdf,
+    /// One light per sample, chosen per shading point by the light tree (power, distance and
+    /// orientation bounds; Conty Estevez & Kulla 2018)
+    Tree,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -102,6 +105,7 @@ pub fn selection_of(arg: SelectionArg) -> LightSelection {
         SelectionArg::Uniform => LightSelection::Uniform,
         SelectionArg::Power => LightSelection::Power,
         SelectionArg::Bsdf => LightSelection::Bsdf,
+        SelectionArg::Tree => LightSelection::Tree,
     }
 }
 

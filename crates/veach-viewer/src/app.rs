@@ -195,6 +195,7 @@ impl ViewerApp {
             LightSelection::Uniform => "uniform light",
             LightSelection::Power => "light by power",
             LightSelection::Bsdf => "light by BSDF",
+            LightSelection::Tree => "light by tree",
         };
         format!(
             "{} {counts}, {selection} ({}){}, {} samples, seed {}",
@@ -397,6 +398,7 @@ impl ViewerApp {
             ui.radio_value(&mut c.light_selection, LightSelection::Uniform, "one, uniformly");
             ui.radio_value(&mut c.light_selection, LightSelection::Power, "one, by power");
             ui.radio_value(&mut c.light_selection, LightSelection::Bsdf, "one, by BSDF and power");
+            ui.radio_value(&mut c.light_selection, LightSelection::Tree, "one, by the light tree");
             ui.horizontal(|ui| {
                 ui.label("point on a light, uniform in");
                 ui.radio_value(&mut c.light_sampling, LightSampling::Area, "area");

@@ -183,7 +183,7 @@ pub struct KernelKey {
     /// Area samples may pick a light's triangle by area: false where `parallelograms` takes every
     /// area light.
     pub triangle_picks: bool,
-    /// Lights may be chosen per shading point (`LightSelection::Bsdf`).
+    /// Lights may be chosen per shading point (`LightSelection::per_point`).
     pub point_selection: bool,
     /// The scene has exactly one light (`SceneFeatures::single_light`).
     pub single_light: bool,
@@ -306,7 +306,7 @@ impl KernelKey {
             parallelograms,
             triangle_picks: !(parallelograms && features.all_area_lights_parallelograms),
             point_selection: !features.single_light
-                && settings.light_selection == crate::settings::LightSelection::Bsdf
+                && settings.light_selection.per_point()
                 && effective_strategy(features, settings).0.samples_lights(),
             single_light: features.single_light,
             textures: features.textures(),
@@ -555,7 +555,7 @@ pub fn waiting_direction_rays(features: &SceneFeatures, settings: &RenderSetting
         && !cone_sampling(features, settings)
         && !settings.control_variate
         && !settings.write_aovs
-        && settings.light_selection != crate::settings::LightSelection::Bsdf
+        && !settings.light_selection.per_point()
 }
 
 /// Whether a render runs the wavefront kernels: as asked, or as `auto` picks for the adapter.

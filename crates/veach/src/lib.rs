@@ -15,6 +15,7 @@ pub mod error;
 pub mod features;
 pub mod gpu;
 pub mod image_io;
+pub mod light_tree;
 pub mod mitsuba;
 pub mod output;
 pub mod render;

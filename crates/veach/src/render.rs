@@ -58,6 +58,11 @@ pub struct GpuScene {
     /// The emitters' grid, for BVH kernels where the driver branches around code no lane runs and
     /// the grid pays (`gpu::emitter_grid`; `KernelKey::emitter_grid`).
     pub(crate) emitter_grid: Option<wgpu::Buffer>,
+    /// The light tree's nodes and directional leaves (`crate::light_tree`; one zeroed node where
+    /// there is no light), and their counts.
+    pub(crate) light_tree: wgpu::Buffer,
+    pub(crate) light_tree_nodes: u32,
+    pub(crate) directional_lights: u32,
     pub stats: SceneUploadStats,
     /// What the scene needs of the kernel.
     pub features: SceneFeatures,
@@ -73,6 +78,12 @@ impl GpuScene {
     /// Triangles of area lights.
     pub fn emitter_triangles(&self) -> u32 {
         self.emitter_triangles
+    }
+
+    /// The light tree's node count and the directional lights after them (FrameParams'
+    /// light_tree_nodes and directional_lights).
+    pub fn light_tree_counts(&self) -> (u32, u32) {
+        (self.light_tree_nodes, self.directional_lights)
     }
 
     /// The most entries the BVH's traversal can push on its stack.
@@ -409,8 +420,14 @@ impl Renderer {
         let emitter_grid = emitter_grid
             .filter(|g| (g.words.len() as u64 * 4) <= max_binding)
             .map(|g| storage_buffer(device, "emitter grid", &g.words));
-        stats.gpu_scene_bytes =
-            buffers.iter().chain(texture_buffers.iter().flatten()).chain(emitter_grid.iter()).map(|b| b.size()).sum();
+        let light_tree = storage_buffer(device, "light tree", &arrays.light_tree.nodes);
+        stats.gpu_scene_bytes = buffers
+            .iter()
+            .chain(texture_buffers.iter().flatten())
+            .chain(emitter_grid.iter())
+            .chain([&light_tree])
+            .map(|b| b.size())
+            .sum();
         stats.upload = upload_start.elapsed();
         Ok(GpuScene {
             buffers,
@@ -418,6 +435,9 @@ impl Renderer {
             baked,
             texture_buffers,
             light_count: scene.lights.len() as u32,
+            light_tree,
+            light_tree_nodes: arrays.light_tree.tree_nodes,
+            directional_lights: arrays.light_tree.directional,
             emitter_bound: arrays.emitter_bound,
             emitter_box: arrays.emitter_box,
             bvh_stack_bound,
@@ -450,6 +470,10 @@ impl Renderer {
         entries.push(wgpu::BindGroupEntry {
             binding: bindings::TRIANGLE_LIGHTS,
             resource: triangle_lights.as_entire_binding(),
+        });
+        entries.push(wgpu::BindGroupEntry {
+            binding: bindings::LIGHT_TREE,
+            resource: scene.light_tree.as_entire_binding(),
         });
         for (i, b) in outputs.iter().enumerate() {
             entries.push(wgpu::BindGroupEntry {
@@ -517,8 +541,11 @@ impl Renderer {
                 LightSelection::Uniform => layout::SELECT_UNIFORM,
                 LightSelection::Power => layout::SELECT_POWER,
                 LightSelection::Bsdf => layout::SELECT_BSDF,
+                LightSelection::Tree => layout::SELECT_TREE,
             },
             light_count: scene.light_count,
+            light_tree_nodes: scene.light_tree_nodes,
+            directional_lights: scene.directional_lights,
             emitter_centre: scene.emitter_bound.0,
             emitter_radius: scene.emitter_bound.1,
             emitter_min: scene.emitter_box.0,

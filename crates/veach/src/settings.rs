@@ -34,6 +34,11 @@ pub enum LightSelection {
     /// (`prepare_point_selection` in shaders/lights.wgsl). By power where a scene has more than
     /// 16 lights.
     Bsdf,
+    /// One light per sample, chosen per shading point by walking the light tree: at each node
+    /// the child whose bounds (box, power, emission cone) promise more light to the point and its
+    /// normal is more likely (`crate::light_tree`, shaders/light_tree.wgsl; Conty Estevez &
+    /// Kulla 2018).
+    Tree,
 }
 
 /// How light sampling picks a point on an area light.
@@ -96,8 +101,19 @@ pub enum Execution {
 }
 
 impl LightSelection {
-    pub const ALL: [LightSelection; 4] =
-        [LightSelection::Each, LightSelection::Uniform, LightSelection::Power, LightSelection::Bsdf];
+    pub const ALL: [LightSelection; 5] = [
+        LightSelection::Each,
+        LightSelection::Uniform,
+        LightSelection::Power,
+        LightSelection::Bsdf,
+        LightSelection::Tree,
+    ];
+
+    /// Whether the probability of choosing a light depends on the shading point: a direction
+    /// sample's MIS weight then needs its own point's selection (no deferred or waiting rays).
+    pub fn per_point(self) -> bool {
+        matches!(self, LightSelection::Bsdf | LightSelection::Tree)
+    }
 }
 
 impl LightSampling {

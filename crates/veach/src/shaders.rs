@@ -26,6 +26,7 @@ pub const SHADER_FILES: &[(&str, &str)] = &[
     LANES,
     ("bsdf.wgsl", include_str!("../../../shaders/bsdf.wgsl")),
     ("lights.wgsl", include_str!("../../../shaders/lights.wgsl")),
+    ("light_tree.wgsl", include_str!("../../../shaders/light_tree.wgsl")),
     ("mis.wgsl", include_str!("../../../shaders/mis.wgsl")),
     ("control_variate.wgsl", include_str!("../../../shaders/control_variate.wgsl")),
     ("integrator.wgsl", include_str!("../../../shaders/integrator.wgsl")),

@@ -34,8 +34,11 @@ pub const CAMERA_FOOTPRINTS: u32 = 24;
 /// BVH kernels with the emitters' grid (`KernelKey::emitter_grid`, `gpu::emitter_grid`): the grid
 /// (read-only storage).
 pub const EMITTER_GRID: u32 = 25;
+/// The light tree (`crate::light_tree`; read-only storage), in every kernel: SELECT_TREE is a
+/// setting of the frame, not of the kernel.
+pub const LIGHT_TREE: u32 = 26;
 /// Storage buffers a render kernel binds (scene + outputs): a device must allow this many per stage.
-pub const STORAGE_BUFFERS_NEEDED: u32 = 1 + SCENE_COUNT + 1 + OUTPUT_COUNT + TEXTURES_COUNT;
+pub const STORAGE_BUFFERS_NEEDED: u32 = 1 + SCENE_COUNT + 1 + OUTPUT_COUNT + TEXTURES_COUNT + 1;
 /// Storage buffers of the largest kernel with the emitters' grid: the wavefront's three deferred
 /// bindings and the grid besides.
 pub const STORAGE_BUFFERS_WITH_EMITTER_GRID: u32 = STORAGE_BUFFERS_NEEDED + 3 + 1;
@@ -94,6 +97,7 @@ pub fn layout_entries(extra: ExtraBindings) -> Vec<wgpu::BindGroupLayoutEntry> {
     } else {
         storage(TRIANGLE_LIGHTS, true)
     });
+    entries.push(storage(LIGHT_TREE, true));
     entries.extend((OUTPUT_FIRST..OUTPUT_FIRST + OUTPUT_COUNT).map(|b| storage(b, false)));
     if with_textures {
         entries.extend((TEXTURES_FIRST..TEXTURES_FIRST + TEXTURES_COUNT).map(|b| storage(b, true)));

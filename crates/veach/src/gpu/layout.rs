@@ -17,6 +17,7 @@ pub const SELECT_EACH: u32 = 0;
 pub const SELECT_UNIFORM: u32 = 1;
 pub const SELECT_POWER: u32 = 2;
 pub const SELECT_BSDF: u32 = 3;
+pub const SELECT_TREE: u32 = 4;
 
 pub const LIGHT_SAMPLING_AREA: u32 = 0;
 pub const LIGHT_SAMPLING_SOLID_ANGLE: u32 = 1;
@@ -96,7 +97,10 @@ pub struct FrameParams {
     /// first_sample + spp) of the one sample sequence (`--first-sample`, for renders split
     /// across machines and merged).
     pub first_sample: u32,
-    pub _pad: [u32; 2],
+    /// The light tree's nodes (0: none) and the directional lights after them
+    /// (SELECT_TREE; crate::light_tree).
+    pub light_tree_nodes: u32,
+    pub directional_lights: u32,
 }
 
 #[repr(C)]
@@ -238,7 +242,26 @@ pub struct LightPick {
     pub pdf: f32,
     pub alias_prob: f32,
     pub alias_index: u32,
-    pub _pad0: u32,
+    /// The light's path from the light tree's root to its leaf (crate::light_tree): bit d set
+    /// where it takes the second child at depth d; light_tree::NOT_IN_TREE where it has no leaf.
+    pub tree_trail: u32,
+}
+
+/// A node of the light tree (crate::light_tree, shaders/light_tree.wgsl), 64 bytes: the bounds
+/// of the lights below it (box, power, emission cone) and its first child (the second follows
+/// it) or, in a leaf (flags & LEAF), its light.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
+pub struct LightTreeNode {
+    pub min: [f32; 3],
+    pub phi: f32,
+    pub max: [f32; 3],
+    pub cos_o: f32,
+    pub axis: [f32; 3],
+    pub cos_e: f32,
+    pub child_or_light: u32,
+    pub flags: u32,
+    pub _pad: [u32; 2],
 }
 
 #[repr(C)]
@@ -338,8 +361,11 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             emitter_max,
             image_height,
             finish_samples,
-            first_sample
+            first_sample,
+            light_tree_nodes,
+            directional_lights
         }),
+        layout!(LightTreeNode { min, phi, max, cos_o, axis, cos_e, child_or_light, flags }),
         layout!(BvhNode { origin, exponents, low, lights_01, high, lights_23, children }),
         layout!(Vertex { p, normal }),
         layout!(IndexedTriangle { v0, v1, v2, material }),
@@ -376,7 +402,7 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             parallelogram
         }),
         layout!(EmitterTriangle { alias_prob, triangle, alias_triangle }),
-        layout!(LightPick { pdf, alias_prob, alias_index }),
+        layout!(LightPick { pdf, alias_prob, alias_index, tree_trail }),
         layout!(TestParams { routine, count, seed, light_index, wo, point, material }),
         layout!(PixelCounters { rays, nonfinite, truncated }),
         layout!(DeferredSample {

@@ -6,6 +6,9 @@ use super::light_subtrees::{is_convex, is_round, node_lights, parallelogram_corn
 use crate::alias::alias_table;
 use crate::bvh::Bvh;
 use crate::features::SceneFeatures;
+use crate::light_tree::{
+    LightBounds, LightTree, area_light_bounds, build_light_tree, point_light_bounds, spot_light_bounds,
+};
 use crate::scene::{LightKind, Scene, TextureRef};
 use glam::Vec3;
 use std::collections::HashMap;
@@ -23,6 +26,7 @@ pub struct SceneArrays {
     pub lights: Vec<layout::Light>,
     pub emitter_tris: Vec<layout::EmitterTriangle>,
     pub light_picks: Vec<layout::LightPick>,
+    pub light_tree: crate::light_tree::LightTree,
     /// Centre and radius of a sphere around every area light's triangles; radius 0 without any.
     pub emitter_bound: ([f32; 3], f32),
     /// A box around the same triangles (min, max; min > max where there are none).
@@ -234,10 +238,9 @@ pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) ->
     let convex: Vec<bool> = shapes.iter().map(|s| s.convex).collect();
 
     // Lights by power; all dark (or no power at all): uniformly.
-    let powers: Vec<f64> =
-        light_powers(scene).iter().map(|&p| if p.is_finite() { p.max(0.0) as f64 } else { 0.0 }).collect();
+    let powers = selection_powers(scene);
     let total: f64 = powers.iter().sum();
-    let light_picks: Vec<layout::LightPick> = powers
+    let mut light_picks: Vec<layout::LightPick> = powers
         .iter()
         .zip(alias_table(&powers))
         .map(|(&p, bucket)| layout::LightPick {
@@ -247,6 +250,11 @@ pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) ->
             ..Default::default()
         })
         .collect();
+
+    let light_tree = scene_light_tree(scene, &powers);
+    for (pick, &trail) in light_picks.iter_mut().zip(&light_tree.trails) {
+        pick.tree_trail = trail;
+    }
 
     let emitter_points = emitter_scene_tris.iter().flat_map(|&t| scene.triangles[t as usize].p);
     let (emitter_bound, emitter_box) = if emitter_scene_tris.is_empty() {
@@ -289,10 +297,54 @@ pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) ->
         lights,
         emitter_tris,
         light_picks,
+        light_tree,
         emitter_bound,
         emitter_box,
         textures,
     }
+}
+
+/// The light tree over the scene's lights (`crate::light_tree`), each with its share of
+/// `powers` (the lights' powers, as selection by power takes them).
+pub fn scene_light_tree(scene: &Scene, powers: &[f64]) -> LightTree {
+    let total: f64 = powers.iter().sum();
+    let mut directional = Vec::new();
+    let light_bounds: Vec<Option<LightBounds>> = scene
+        .lights
+        .iter()
+        .enumerate()
+        .map(|(li, light)| {
+            let phi = if total > 0.0 { (powers[li] / total) as f32 } else { 0.0 };
+            match &light.kind {
+                LightKind::Area { triangles, double_sided, .. } => {
+                    let normals: Vec<Vec3> = triangles
+                        .iter()
+                        .filter_map(|&t| {
+                            let [p0, p1, p2] = scene.triangles[t as usize].p;
+                            (p1 - p0).cross(p2 - p0).try_normalize()
+                        })
+                        .collect();
+                    let corners = triangles.iter().flat_map(|&t| scene.triangles[t as usize].p);
+                    Some(area_light_bounds(corners, &normals, phi, *double_sided))
+                }
+                LightKind::Point { position, .. } => Some(point_light_bounds(*position, phi)),
+                LightKind::Spot { position, direction, outer_cone, .. } => {
+                    Some(spot_light_bounds(*position, *direction, outer_cone.cos(), phi))
+                }
+                LightKind::Directional { .. } => {
+                    directional.push(li as u32);
+                    None
+                }
+            }
+        })
+        .collect();
+    build_light_tree(&light_bounds, &directional)
+}
+
+/// The lights' powers as selection by power and the light tree take them: not finite or
+/// negative counts as none.
+pub fn selection_powers(scene: &Scene) -> Vec<f64> {
+    light_powers(scene).iter().map(|&p| if p.is_finite() { p.max(0.0) as f64 } else { 0.0 }).collect()
 }
 
 /// The triangles in BVH order over shared vertices: one vertex for all the corners with the same

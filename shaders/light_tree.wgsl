@@ -1,0 +1,157 @@
+// light_tree.wgsl: choosing a light per shading point by the light tree (SELECT_TREE; Conty
+// Estevez & Kulla, "Importance Sampling of Many Lights with Adaptive Tree Splitting", HPG 2018;
+// pbrt-v4's BVHLightSampler). The host builds the tree (crates/veach/src/light_tree.rs, whose
+// LightBounds::importance is light_bounds_importance in Rust, for the tests). From the root, each
+// step takes a child with probability proportional to what its bounds promise the point; the
+// probability of a light is the product along its path, which light_tree_pmf retraces for the MIS
+// weight of a direction sample that finds the light.
+
+@group(0) @binding(26) var<storage, read> light_tree: array<LightTreeNode>;
+
+// The shading point and normal the tree chooses for, set by prepare_point_selection.
+var<private> tree_point: vec3f;
+var<private> tree_normal: vec3f;
+
+fn uses_light_tree() -> bool {
+    return POINT_LIGHT_SELECTION && frame.light_selection == SELECT_TREE && !SINGLE_LIGHT;
+}
+
+// cos(max(0, a − b)) and sin(max(0, a − b)) from the sines and cosines of angles a, b in [0, π].
+fn cos_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> f32 {
+    return select(cos_a * cos_b + sin_a * sin_b, 1.0, cos_a > cos_b);
+}
+
+fn sin_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> f32 {
+    return select(sin_a * cos_b - cos_a * sin_b, 0.0, cos_a > cos_b);
+}
+
+fn safe_sqrt(x: f32) -> f32 {
+    return sqrt(max(x, 0.0));
+}
+
+// What a node's lights may send to point p with normal n: phi cos θ' / d² times cos θ'_i, θ' the
+// least angle between an emitter normal of the cone and a direction from the box to p, θ'_i the
+// least angle between n and a direction from p into the box (pbrt-v4's LightBounds::Importance,
+// with d² kept above the square of half the box's diagonal). Zero where no emitter faces p or the
+// whole box lies below p's horizon (veach's BSDFs only reflect).
+fn light_bounds_importance(node: LightTreeNode, p: vec3f, n: vec3f) -> f32 {
+    let pc = 0.5 * (node.min + node.max);
+    let diagonal = node.max - node.min;
+    let half_diagonal_sq = 0.25 * dot(diagonal, diagonal);
+    let to_p = p - pc;
+    let dist_sq = dot(to_p, to_p);
+    let d2 = max(max(dist_sq, half_diagonal_sq), 1.0e-20);
+    let wi = select(vec3f(0.0), to_p * inverseSqrt(dist_sq), dist_sq > 0.0);
+    var cos_w = dot(node.axis, wi);
+    if (node.flags & LIGHT_TREE_TWO_SIDED) != 0u {
+        cos_w = abs(cos_w);
+    }
+    let sin_w = safe_sqrt(1.0 - cos_w * cos_w);
+    // The cone of directions from p that the box's bounding sphere subtends (every direction
+    // from inside it).
+    let cos_b = select(safe_sqrt(1.0 - half_diagonal_sq / dist_sq), -1.0, dist_sq < half_diagonal_sq);
+    let sin_b = safe_sqrt(1.0 - cos_b * cos_b);
+    let sin_o = safe_sqrt(1.0 - node.cos_o * node.cos_o);
+    let cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, node.cos_o);
+    let sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, node.cos_o);
+    let cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
+    if cos_p <= node.cos_e {
+        return 0.0;
+    }
+    let cos_i = dot(-wi, n);
+    let sin_i = safe_sqrt(1.0 - cos_i * cos_i);
+    let cos_pi = cos_sub_clamped(sin_i, cos_i, sin_b, cos_b);
+    if cos_pi <= 0.0 {
+        return 0.0;
+    }
+    return max(node.phi * cos_p / d2 * cos_pi, 0.0);
+}
+
+// The first of two children's probability at the point: its share of their importance, or of
+// their power where both importances are zero (or underflow), so that every light with power
+// keeps a positive probability wherever the estimate fails (light_tree.rs, first_child_share).
+fn first_child_share(a: LightTreeNode, b: LightTreeNode) -> f32 {
+    let ia = light_bounds_importance(a, tree_point, tree_normal);
+    let ib = light_bounds_importance(b, tree_point, tree_normal);
+    if ia + ib > 0.0 {
+        return ia / (ia + ib);
+    }
+    return a.phi / (a.phi + b.phi);
+}
+
+// The probability of choosing any one directional light: each gets one share and the tree one
+// (pbrt-v4's pInfinite).
+fn directional_share() -> f32 {
+    return 1.0 / f32(frame.directional_lights + select(0u, 1u, frame.light_tree_nodes > 0u));
+}
+
+// A light chosen at the tree point, with its probability; u is remapped at every step (as
+// alias_pick remaps) so that the sample's stratification carries over to the point on the light.
+fn select_light_from_tree(u_in: f32) -> SelectedLight {
+    var u = u_in;
+    let share = directional_share();
+    let directional = f32(frame.directional_lights) * share;
+    if u < directional {
+        let k = min(u32(u / share), frame.directional_lights - 1u);
+        let leaf = light_tree[frame.light_tree_nodes + k];
+        let start = f32(k) * share;
+        return SelectedLight(DiscretePick(leaf.child_or_light, clamp((u - start) / share, 0.0, ONE_MINUS_EPSILON)), share);
+    }
+    u = remap_above(u, directional);
+    var pmf = share;
+    var node = light_tree[0];
+    if (node.flags & LIGHT_TREE_LEAF) == 0u {
+        // Tested at its end (integrator.wgsl's `render` says why).
+        loop {
+            let first = light_tree[node.child_or_light];
+            let second = light_tree[node.child_or_light + 1u];
+            let p0 = first_child_share(first, second);
+            if u < p0 {
+                u = remap_below(u, p0);
+                pmf *= p0;
+                node = first;
+            } else {
+                u = remap_above(u, p0);
+                pmf *= 1.0 - p0;
+                node = second;
+            }
+            if (node.flags & LIGHT_TREE_LEAF) != 0u {
+                break;
+            }
+        }
+    }
+    return SelectedLight(DiscretePick(node.child_or_light, u), pmf);
+}
+
+// The probability that select_light_from_tree chooses light `index` at the tree point: down the
+// light's path (LightPick.tree_trail), the same shares it would have drawn from.
+fn light_tree_pmf(index: u32) -> f32 {
+    if light_at(index).kind == LIGHT_DIRECTIONAL {
+        return directional_share();
+    }
+    var trail = light_picks[index].tree_trail;
+    if trail == 0xffffffffu || frame.light_tree_nodes == 0u {
+        return 0.0;
+    }
+    var pmf = directional_share();
+    var node = light_tree[0];
+    if (node.flags & LIGHT_TREE_LEAF) == 0u {
+        loop {
+            let first = light_tree[node.child_or_light];
+            let second = light_tree[node.child_or_light + 1u];
+            let p0 = first_child_share(first, second);
+            if (trail & 1u) == 0u {
+                pmf *= p0;
+                node = first;
+            } else {
+                pmf *= 1.0 - p0;
+                node = second;
+            }
+            trail >>= 1u;
+            if (node.flags & LIGHT_TREE_LEAF) != 0u {
+                break;
+            }
+        }
+    }
+    return pmf;
+}
