@@ -26,6 +26,8 @@ bugs=(
   "shaders/bsdf.wgsl|return smith_g1(wo.z, alpha) * ggx_d(h, alpha) / (4.0 * wo.z);|return ggx_d(h, alpha) / (4.0 * wo.z);|sampling|ggx_visible|VNDF pdf without the G1 masking term"
   "shaders/bsdf.wgsl|return p_spec * ggx_vndf_pdf(wo, wi, p.alpha) + diffuse;|return 0.5 * ggx_vndf_pdf(wo, wi, p.alpha) + diffuse;|sampling|gltf_brdf|mixture pdf ignores the lobe probability"
   "shaders/integrator.wgsl|r.p_light = select(p_select * ls.pdf, p_select, r.is_delta);|r.p_light = select(p_select * ls.pdf, p_select / f32(frame.light_samples), r.is_delta);|analytic|delta_light|delta light skips the 1/n (Mitsuba 3 #1861)"
+  "shaders/light_tree.wgsl|                pmf *= 1.0 - p0;\n                node = second;\n            }\n            trail >>= 1u;|                pmf *= p0;\n                node = second;\n            }\n            trail >>= 1u;|analytic|many_lights|light tree: a path's probability retraced with the first child's share"
+  "shaders/light_tree.wgsl|    return select(cos_a * cos_b + sin_a * sin_b, 1.0, cos_a > cos_b);|    return select(cos_a * cos_b - sin_a * sin_b, 1.0, cos_a > cos_b);|sampling|light_tree|light tree: cos(a − b) written as cos(a + b)"
   "shaders/integrator.wgsl|w = mis_weight(f32(plan.m), d.pdf, f32(plan.n), p_light);|w = mis_weight(f32(plan.n), d.pdf, f32(plan.m), p_light);|strategies|veach_mis|BRDF samples weighted with the counts swapped"
   "shaders/integrator.wgsl|return sum / f32(plan.n);|return sum / f32(total);|strategies|veach_mis|every light's samples averaged over all lights"
   "shaders/sampling.wgsl|(k2 + (k2 * cos_phi - k1 * sin_phi) * cos_alpha) / denom|(k2 + (k2 * cos_phi - k1 * sin_phi)) * cos_alpha / denom|sampling|area_light|Arvo's cos β' with a misplaced parenthesis"

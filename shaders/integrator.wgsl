@@ -768,7 +768,10 @@ fn estimate_radiance(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<fu
 struct WaitingSample {
     // Emitted radiance plus the light samples' estimate.
     partial: vec3f,
+    // The shading point and normal (the light tree's choice depends on them: its MIS weight is
+    // taken there).
     p: vec3f,
+    n: vec3f,
     origin: vec3f,
     t_max: f32,
     wi: vec3f,
@@ -854,12 +857,16 @@ fn estimate_radiance_waiting(ray: Ray, stream: ptr<function, SampleStream>, rays
             origin = w.origin;
             t_max = w.t_max;
             at = w.p;
+            tree_point = w.p;
+            tree_normal = w.n;
         } else if this_pass != CURRENT_PASS && trace_current {
             this_pass = CURRENT_PASS;
             d = next.d;
             origin = next.origin;
             t_max = next.t_max;
             at = c.s.p;
+            tree_point = c.s.p;
+            tree_normal = c.frame.n;
         } else {
             break;
         }
@@ -873,11 +880,14 @@ fn estimate_radiance_waiting(ray: Ray, stream: ptr<function, SampleStream>, rays
     if !seen {
         return out;
     }
+    // The light samples choose from this sample's point (the earlier sample's pass moved it).
+    tree_point = c.s.p;
+    tree_normal = c.frame.n;
     var light_stream = SampleStream((*stream).index, (*stream).seed, light_dim);
     e.light = estimate_light(c, plan, &light_stream, rays);
     let partial = e.emitted + e.light;
     if next.d.valid && !trace_current {
-        *waiting = WaitingSample(partial, c.s.p, next.origin, next.t_max, next.d.wi, next.d.pdf, next.d.throughput, next.d.mis, true);
+        *waiting = WaitingSample(partial, c.s.p, c.frame.n, next.origin, next.t_max, next.d.wi, next.d.pdf, next.d.throughput, next.d.mis, true);
         out.current_complete = false;
     }
     out.current = partial + e.brdf;
@@ -960,7 +970,7 @@ struct Deferring {
 
 fn estimate_radiance_deferring(ray: Ray, stream: ptr<function, SampleStream>, rays: ptr<function, u32>) -> Deferring {
     var e = Estimate(vec3f(0.0), vec3f(0.0), vec3f(0.0));
-    var held = WaitingSample(vec3f(0.0), vec3f(0.0), vec3f(0.0), 0.0, vec3f(0.0), 0.0, vec3f(0.0), false, false);
+    var held = WaitingSample(vec3f(0.0), vec3f(0.0), vec3f(0.0), vec3f(0.0), 0.0, vec3f(0.0), 0.0, vec3f(0.0), false, false);
     *rays += 1u;
     let hit = trace_camera_ray(ray);
     if !hit.found {
@@ -975,7 +985,7 @@ fn estimate_radiance_deferring(ray: Ray, stream: ptr<function, SampleStream>, ra
     if plan.m > 0u {
         // plan.m is 1 (AT_MOST_ONE_DIRECTION_SAMPLE).
         let next = next_direction_sample(c, plan, 0u, light_dim, stream, rays, &e);
-        held = WaitingSample(vec3f(0.0), c.s.p, next.origin, next.t_max, next.d.wi, next.d.pdf, next.d.throughput, next.d.mis, next.d.valid);
+        held = WaitingSample(vec3f(0.0), c.s.p, c.frame.n, next.origin, next.t_max, next.d.wi, next.d.pdf, next.d.throughput, next.d.mis, next.d.valid);
     }
     var light_stream = SampleStream((*stream).index, (*stream).seed, light_dim);
     e.light = estimate_light(c, plan, &light_stream, rays);
@@ -993,6 +1003,9 @@ fn held_ray_value(w: WaitingSample, rays: ptr<function, u32>) -> vec3f {
         return vec3f(0.0);
     }
     let d = DirectionSample(w.wi, w.pdf, w.throughput, w.mis, true, NO_LIGHT);
+    // The light tree's probabilities at the ray's own point, which later samples moved on.
+    tree_point = w.p;
+    tree_normal = w.n;
     return direction_sample_value(w.p, d, strategy_plan(), hit.tri, surface_at(hit, w.wi));
 }
 

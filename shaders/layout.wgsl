@@ -248,25 +248,26 @@ struct LightPick {
     tree_trail: u32,
 }
 
-// A node of the light tree (crates/veach/src/light_tree.rs): the bounds of the lights below it
-// (a box, their power, normals within acos(cos_o) of axis, each emitting up to acos(cos_e) off its
-// normal) and its first child (the second follows it) or, in a leaf, its light.
+// A node of the light tree (crates/veach/src/light_tree.rs), 32 bytes (the walk loads two a
+// step): the bounds of the lights below it (a sphere around their box, their power, normals within
+// θ_o of an axis, each emitting up to θ_e off its normal) and its first child (the second follows
+// it) or, in a leaf, its light.
 struct LightTreeNode {
-    min: vec3f,
+    centre: vec3f,
+    radius: f32,
     phi: f32,
-    max: vec3f,
-    cos_o: f32,
-    axis: vec3f,
-    cos_e: f32,
+    // The axis, decode_normal'd.
+    axis: u32,
+    // cos θ_o (low half) and cos θ_e as unorm16 of (cos + 1) / 2, rounded down by the host (and
+    // θ_o widened by the axis's encoding error), so that the cones only grow.
+    cosines: u32,
+    // The first child's index, or in a leaf (LIGHT_TREE_LEAF) the light's; LIGHT_TREE_TWO_SIDED.
     child_or_light: u32,
-    // LIGHT_TREE_LEAF, LIGHT_TREE_TWO_SIDED
-    flags: u32,
-    _pad0: u32,
-    _pad1: u32,
 }
 
-const LIGHT_TREE_LEAF: u32 = 1u;
-const LIGHT_TREE_TWO_SIDED: u32 = 2u;
+const LIGHT_TREE_LEAF: u32 = 0x80000000u;
+const LIGHT_TREE_TWO_SIDED: u32 = 0x40000000u;
+const LIGHT_TREE_INDEX: u32 = 0x3fffffffu;
 
 // Parameters of the test kernels (shaders/test_kernels.wgsl).
 struct TestParams {

@@ -16,6 +16,9 @@ fn uses_light_tree() -> bool {
     return POINT_LIGHT_SELECTION && frame.light_selection == SELECT_TREE && !SINGLE_LIGHT;
 }
 
+// The deepest leaf (light_tree.rs, MAX_DEPTH).
+const MAX_LIGHT_TREE_DEPTH: u32 = 32u;
+
 // cos(max(0, a − b)) and sin(max(0, a − b)) from the sines and cosines of angles a, b in [0, π].
 fn cos_sub_clamped(sin_a: f32, cos_a: f32, sin_b: f32, cos_b: f32) -> f32 {
     return select(cos_a * cos_b + sin_a * sin_b, 1.0, cos_a > cos_b);
@@ -29,50 +32,71 @@ fn safe_sqrt(x: f32) -> f32 {
     return sqrt(max(x, 0.0));
 }
 
+// A node's bounds as the importance reads them (LightTreeNode unpacked).
+struct NodeBounds {
+    centre: vec3f,
+    radius: f32,
+    phi: f32,
+    axis: vec3f,
+    cos_o: f32,
+    sin_o: f32,
+    cos_e: f32,
+    two_sided: bool,
+}
+
+fn node_bounds(node: LightTreeNode) -> NodeBounds {
+    let c = unpack2x16unorm(node.cosines) * 2.0 - 1.0;
+    let two_sided = (node.child_or_light & LIGHT_TREE_TWO_SIDED) != 0u;
+    return NodeBounds(node.centre, node.radius, node.phi, decode_normal(node.axis), c.x, safe_sqrt(1.0 - c.x * c.x), c.y, two_sided);
+}
+
+fn is_leaf(node: LightTreeNode) -> bool {
+    return (node.child_or_light & LIGHT_TREE_LEAF) != 0u;
+}
+
 // What a node's lights may send to point p with normal n: phi cos θ' / d² times cos θ'_i, θ' the
-// least angle between an emitter normal of the cone and a direction from the box to p, θ'_i the
-// least angle between n and a direction from p into the box (pbrt-v4's LightBounds::Importance,
-// with d² kept above the square of half the box's diagonal). Zero where no emitter faces p or the
-// whole box lies below p's horizon (veach's BSDFs only reflect).
-fn light_bounds_importance(node: LightTreeNode, p: vec3f, n: vec3f) -> f32 {
-    let pc = 0.5 * (node.min + node.max);
-    let diagonal = node.max - node.min;
-    let half_diagonal_sq = 0.25 * dot(diagonal, diagonal);
-    let to_p = p - pc;
+// least angle between an emitter normal of the cone and a direction from the node's sphere to p,
+// θ'_i the least angle between n and a direction from p into the sphere (pbrt-v4's
+// LightBounds::Importance, with d² kept above the sphere's radius squared). Zero where no emitter
+// faces p or the whole sphere lies below p's horizon (veach's BSDFs only reflect). The sphere's
+// angular radius comes as its sine, radius / distance.
+fn light_bounds_importance(b: NodeBounds, p: vec3f, n: vec3f) -> f32 {
+    let to_p = p - b.centre;
     let dist_sq = dot(to_p, to_p);
-    let d2 = max(max(dist_sq, half_diagonal_sq), 1.0e-20);
-    let wi = select(vec3f(0.0), to_p * inverseSqrt(dist_sq), dist_sq > 0.0);
-    var cos_w = dot(node.axis, wi);
-    if (node.flags & LIGHT_TREE_TWO_SIDED) != 0u {
+    let radius_sq = b.radius * b.radius;
+    let d2 = max(max(dist_sq, radius_sq), 1.0e-20);
+    let inv_dist = inverseSqrt(max(dist_sq, 1.0e-30));
+    let wi = to_p * inv_dist;
+    var cos_w = dot(b.axis, wi);
+    if b.two_sided {
         cos_w = abs(cos_w);
     }
     let sin_w = safe_sqrt(1.0 - cos_w * cos_w);
-    // The cone of directions from p that the box's bounding sphere subtends (every direction
-    // from inside it).
-    let cos_b = select(safe_sqrt(1.0 - half_diagonal_sq / dist_sq), -1.0, dist_sq < half_diagonal_sq);
-    let sin_b = safe_sqrt(1.0 - cos_b * cos_b);
-    let sin_o = safe_sqrt(1.0 - node.cos_o * node.cos_o);
-    let cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, node.cos_o);
-    let sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, node.cos_o);
+    // The cone of directions from p that the sphere subtends (every direction from inside it).
+    let inside = dist_sq < radius_sq;
+    let sin_b = select(min(b.radius * inv_dist, 1.0), 0.0, inside);
+    let cos_b = select(safe_sqrt(1.0 - sin_b * sin_b), -1.0, inside);
+    let cos_x = cos_sub_clamped(sin_w, cos_w, b.sin_o, b.cos_o);
+    let sin_x = sin_sub_clamped(sin_w, cos_w, b.sin_o, b.cos_o);
     let cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
-    if cos_p <= node.cos_e {
+    if cos_p <= b.cos_e {
         return 0.0;
     }
-    let cos_i = dot(-wi, n);
+    let cos_i = -dot(wi, n);
     let sin_i = safe_sqrt(1.0 - cos_i * cos_i);
     let cos_pi = cos_sub_clamped(sin_i, cos_i, sin_b, cos_b);
     if cos_pi <= 0.0 {
         return 0.0;
     }
-    return max(node.phi * cos_p / d2 * cos_pi, 0.0);
+    return b.phi * cos_p * cos_pi / d2;
 }
 
 // The first of two children's probability at the point: its share of their importance, or of
 // their power where both importances are zero (or underflow), so that every light with power
 // keeps a positive probability wherever the estimate fails (light_tree.rs, first_child_share).
 fn first_child_share(a: LightTreeNode, b: LightTreeNode) -> f32 {
-    let ia = light_bounds_importance(a, tree_point, tree_normal);
-    let ib = light_bounds_importance(b, tree_point, tree_normal);
+    let ia = light_bounds_importance(node_bounds(a), tree_point, tree_normal);
+    let ib = light_bounds_importance(node_bounds(b), tree_point, tree_normal);
     if ia + ib > 0.0 {
         return ia / (ia + ib);
     }
@@ -88,6 +112,10 @@ fn directional_share() -> f32 {
 // A light chosen at the tree point, with its probability; u is remapped at every step (as
 // alias_pick remaps) so that the sample's stratification carries over to the point on the light.
 fn select_light_from_tree(u_in: f32) -> SelectedLight {
+    if frame.light_tree_nodes == 0u && frame.directional_lights == 0u {
+        // No light has power: nothing to choose.
+        return SelectedLight(DiscretePick(0u, u_in), 0.0);
+    }
     var u = u_in;
     let share = directional_share();
     let directional = f32(frame.directional_lights) * share;
@@ -95,16 +123,19 @@ fn select_light_from_tree(u_in: f32) -> SelectedLight {
         let k = min(u32(u / share), frame.directional_lights - 1u);
         let leaf = light_tree[frame.light_tree_nodes + k];
         let start = f32(k) * share;
-        return SelectedLight(DiscretePick(leaf.child_or_light, clamp((u - start) / share, 0.0, ONE_MINUS_EPSILON)), share);
+        return SelectedLight(DiscretePick(leaf.child_or_light & LIGHT_TREE_INDEX, clamp((u - start) / share, 0.0, ONE_MINUS_EPSILON)), share);
     }
     u = remap_above(u, directional);
     var pmf = share;
     var node = light_tree[0];
-    if (node.flags & LIGHT_TREE_LEAF) == 0u {
+    // A leaf lies at most MAX_LIGHT_TREE_DEPTH steps down (a light's path is 32 bits); the bound
+    // keeps a malformed tree from looping.
+    var depth = 0u;
+    if !is_leaf(node) {
         // Tested at its end (integrator.wgsl's `render` says why).
         loop {
-            let first = light_tree[node.child_or_light];
-            let second = light_tree[node.child_or_light + 1u];
+            let first = light_tree[node.child_or_light & LIGHT_TREE_INDEX];
+            let second = light_tree[(node.child_or_light & LIGHT_TREE_INDEX) + 1u];
             let p0 = first_child_share(first, second);
             if u < p0 {
                 u = remap_below(u, p0);
@@ -115,12 +146,13 @@ fn select_light_from_tree(u_in: f32) -> SelectedLight {
                 pmf *= 1.0 - p0;
                 node = second;
             }
-            if (node.flags & LIGHT_TREE_LEAF) != 0u {
+            depth++;
+            if is_leaf(node) || depth >= MAX_LIGHT_TREE_DEPTH {
                 break;
             }
         }
     }
-    return SelectedLight(DiscretePick(node.child_or_light, u), pmf);
+    return SelectedLight(DiscretePick(node.child_or_light & LIGHT_TREE_INDEX, u), select(0.0, pmf, is_leaf(node)));
 }
 
 // The probability that select_light_from_tree chooses light `index` at the tree point: down the
@@ -135,10 +167,11 @@ fn light_tree_pmf(index: u32) -> f32 {
     }
     var pmf = directional_share();
     var node = light_tree[0];
-    if (node.flags & LIGHT_TREE_LEAF) == 0u {
+    var depth = 0u;
+    if !is_leaf(node) {
         loop {
-            let first = light_tree[node.child_or_light];
-            let second = light_tree[node.child_or_light + 1u];
+            let first = light_tree[node.child_or_light & LIGHT_TREE_INDEX];
+            let second = light_tree[(node.child_or_light & LIGHT_TREE_INDEX) + 1u];
             let p0 = first_child_share(first, second);
             if (trail & 1u) == 0u {
                 pmf *= p0;
@@ -148,10 +181,11 @@ fn light_tree_pmf(index: u32) -> f32 {
                 node = second;
             }
             trail >>= 1u;
-            if (node.flags & LIGHT_TREE_LEAF) != 0u {
+            depth++;
+            if is_leaf(node) || depth >= MAX_LIGHT_TREE_DEPTH {
                 break;
             }
         }
     }
-    return pmf;
+    return select(0.0, pmf, is_leaf(node));
 }

@@ -244,10 +244,11 @@ impl Accumulation {
                 if let Some((lists, words)) = baked.camera_footprints(&film, rows.clone()).filter(|(_, w)| fits(w)) {
                     key.footprint_slots = lists.slots as u32;
                     // A held ray is weighed after later camera samples have shaded other points,
-                    // so not where lights are chosen per shading point (its MIS weight needs the
-                    // selection table of its own point).
-                    key.deferred_direction_rays =
-                        key.strategy.is_some_and(|s| s != crate::settings::Strategy::Light) && !key.point_selection;
+                    // so not where lights are chosen by the BSDF per shading point (its MIS weight
+                    // needs the selection table of its own point; the light tree's needs only the
+                    // point and normal, which the held ray keeps).
+                    key.deferred_direction_rays = key.strategy.is_some_and(|s| s != crate::settings::Strategy::Light)
+                        && !(key.point_selection && settings.light_selection == crate::settings::LightSelection::Bsdf);
                     key.waiting_direction_rays = false;
                     key.camera_list = false;
                     footprints = Some((lists.build_time, storage_words(device, "camera footprints", &words)));

@@ -555,7 +555,7 @@ pub fn waiting_direction_rays(features: &SceneFeatures, settings: &RenderSetting
         && !cone_sampling(features, settings)
         && !settings.control_variate
         && !settings.write_aovs
-        && !settings.light_selection.per_point()
+        && settings.light_selection != crate::settings::LightSelection::Bsdf
 }
 
 /// Whether a render runs the wavefront kernels: as asked, or as `auto` picks for the adapter.

@@ -9,7 +9,9 @@
 //! lights): each is chosen with probability 1 / (directional lights + 1), the tree with the rest.
 //! Lights without power stay out too: no point chooses them (as with selection by power).
 
-use crate::gpu::layout::LightTreeNode;
+use crate::gpu::layout::{
+    LIGHT_TREE_INDEX, LIGHT_TREE_LEAF, LIGHT_TREE_TWO_SIDED, LightTreeNode, decode_normal, encode_normal,
+};
 use glam::{Quat, Vec3};
 use std::f32::consts::PI;
 
@@ -102,51 +104,80 @@ impl LightBounds {
         0.5 * (self.min + self.max)
     }
 
-    /// An upper-bound-shaped estimate of the light that these emitters send to point `p` of a
-    /// surface with normal `n` (zero `n`: no surface): phi · cos θ' / d², times cos θ'_i, where
-    /// θ' is the smallest angle between an emitter normal in the cone and a direction from the
-    /// box to p, and θ'_i the smallest angle between n and a direction from p into the box
-    /// (pbrt-v4's `LightBounds::Importance`). Zero where no emitter can face p, or p's surface
-    /// faces away from the whole box (veach's BSDFs reflect only: light from below the shading
-    /// normal adds nothing). pbrt-v4 keeps d² above half the box's diagonal; here above the
-    /// square of half the diagonal, so that both sides are areas (and above 1e-20, for a point
-    /// light at p).
+    /// What these emitters may send to point `p` of a surface with normal `n`:
+    /// `NodeBounds::importance` of their node.
     pub fn importance(&self, p: Vec3, n: Vec3) -> f32 {
-        let pc = self.centroid();
-        let half_diagonal_sq = 0.25 * (self.max - self.min).length_squared();
-        let to_p = p - pc;
-        let d2 = to_p.length_squared().max(half_diagonal_sq).max(1.0e-20);
-        let wi = to_p.normalize_or_zero();
+        NodeBounds::from(self).importance(p, n)
+    }
+}
+
+/// A node's bounds as the walk reads them: the sphere around the box (centre, radius = half the
+/// diagonal), power, emission cone with its sine (LightTreeNode on the GPU).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NodeBounds {
+    pub centre: Vec3,
+    pub radius: f32,
+    pub axis: Vec3,
+    pub phi: f32,
+    pub cos_o: f32,
+    pub sin_o: f32,
+    pub cos_e: f32,
+    pub two_sided: bool,
+}
+
+impl From<&LightBounds> for NodeBounds {
+    fn from(b: &LightBounds) -> NodeBounds {
+        NodeBounds {
+            centre: 0.5 * (b.min + b.max),
+            radius: 0.5 * (b.max - b.min).length(),
+            axis: b.axis,
+            phi: b.phi,
+            cos_o: b.cos_o,
+            sin_o: safe_sqrt(1.0 - b.cos_o * b.cos_o),
+            cos_e: b.cos_e,
+            two_sided: b.two_sided,
+        }
+    }
+}
+
+impl NodeBounds {
+    /// An estimate of the light that the node's emitters send to point `p` of a surface with
+    /// normal `n` (the same float operations as `light_bounds_importance` in
+    /// shaders/light_tree.wgsl): phi · cos θ' / d² times cos θ'_i, where θ' is the smallest angle
+    /// between an emitter normal in the cone and a direction from the node's sphere to p, and θ'_i
+    /// the smallest angle between n and a direction from p into the sphere (pbrt-v4's
+    /// `LightBounds::Importance`). Zero where no emitter can face p, or the whole sphere lies
+    /// below p's horizon (veach's BSDFs reflect only: light from below the shading normal adds
+    /// nothing). pbrt-v4 keeps d² above half the box's diagonal; here above the sphere's radius
+    /// squared, so that both sides are areas (and above 1e-20, for a point light at p).
+    pub fn importance(&self, p: Vec3, n: Vec3) -> f32 {
+        let to_p = p - self.centre;
+        let dist_sq = to_p.dot(to_p);
+        let radius_sq = self.radius * self.radius;
+        let d2 = dist_sq.max(radius_sq).max(1.0e-20);
+        let inv_dist = 1.0 / dist_sq.max(1.0e-30).sqrt();
+        let wi = to_p * inv_dist;
         let mut cos_w = self.axis.dot(wi);
         if self.two_sided {
             cos_w = cos_w.abs();
         }
         let sin_w = safe_sqrt(1.0 - cos_w * cos_w);
-        // The cone of directions from p that the box subtends (pbrt-v4's BoundSubtendedDirections).
-        let cos_b = if to_p.length_squared() < half_diagonal_sq {
-            -1.0
-        } else {
-            safe_sqrt(1.0 - half_diagonal_sq / to_p.length_squared())
-        };
-        let sin_b = safe_sqrt(1.0 - cos_b * cos_b);
-        let sin_o = safe_sqrt(1.0 - self.cos_o * self.cos_o);
-        let cos_x = cos_sub_clamped(sin_w, cos_w, sin_o, self.cos_o);
-        let sin_x = sin_sub_clamped(sin_w, cos_w, sin_o, self.cos_o);
+        let inside = dist_sq < radius_sq;
+        let sin_b = if inside { 0.0 } else { (self.radius * inv_dist).min(1.0) };
+        let cos_b = if inside { -1.0 } else { safe_sqrt(1.0 - sin_b * sin_b) };
+        let cos_x = cos_sub_clamped(sin_w, cos_w, self.sin_o, self.cos_o);
+        let sin_x = sin_sub_clamped(sin_w, cos_w, self.sin_o, self.cos_o);
         let cos_p = cos_sub_clamped(sin_x, cos_x, sin_b, cos_b);
         if cos_p <= self.cos_e {
             return 0.0;
         }
-        let mut importance = self.phi * cos_p / d2;
-        if n != Vec3::ZERO {
-            let cos_i = (-wi).dot(n);
-            let sin_i = safe_sqrt(1.0 - cos_i * cos_i);
-            let cos_pi = cos_sub_clamped(sin_i, cos_i, sin_b, cos_b);
-            if cos_pi <= 0.0 {
-                return 0.0;
-            }
-            importance *= cos_pi;
+        let cos_i = -wi.dot(n);
+        let sin_i = safe_sqrt(1.0 - cos_i * cos_i);
+        let cos_pi = cos_sub_clamped(sin_i, cos_i, sin_b, cos_b);
+        if cos_pi <= 0.0 {
+            return 0.0;
         }
-        importance.max(0.0)
+        self.phi * cos_p * cos_pi / d2
     }
 }
 
@@ -212,10 +243,6 @@ const MEDIAN_SPLIT_DEPTH: u32 = 20;
 /// Buckets per axis of the binned split search (pbrt-v4's 12).
 const BUCKETS: usize = 12;
 
-/// Node flags (LightTreeNode.flags).
-pub const LEAF: u32 = 1;
-pub const TWO_SIDED: u32 = 2;
-
 /// Builds the tree over the lights with `Some` bounds and positive power; `directional` are the
 /// indices of the directional lights.
 pub fn build_light_tree(bounds: &[Option<LightBounds>], directional: &[u32]) -> LightTree {
@@ -232,22 +259,39 @@ pub fn build_light_tree(bounds: &[Option<LightBounds>], directional: &[u32]) -> 
     }
     let tree_nodes = nodes.len() as u32;
     for &light in directional {
-        nodes.push(LightTreeNode { child_or_light: light, flags: LEAF, ..Default::default() });
+        nodes.push(LightTreeNode { child_or_light: light | LIGHT_TREE_LEAF, ..Default::default() });
     }
     LightTree { nodes, tree_nodes, directional: directional.len() as u32, trails }
 }
 
+/// A cosine as the node stores it: unorm16 of (cos + 1) / 2, rounded down (a wider cone).
+fn encode_cosine(c: f32) -> u32 {
+    let mut q = (((c.clamp(-1.0, 1.0) + 1.0) / 2.0) * 65535.0).floor() as u32;
+    while q > 0 && decode_cosine(q) > c {
+        q -= 1;
+    }
+    q
+}
+
+/// `unpack2x16unorm(x) * 2 - 1`, as light_tree.wgsl reads it.
+fn decode_cosine(q: u32) -> f32 {
+    (q & 0xffff) as f32 / 65535.0 * 2.0 - 1.0
+}
+
 fn node_of(b: &LightBounds) -> LightTreeNode {
+    let n = NodeBounds::from(b);
+    // The axis as decoded, and the cone widened by the angle the encoding moved it.
+    let axis = encode_normal(n.axis.to_array());
+    let moved = Vec3::from(decode_normal(axis)).as_dvec3().angle_between(n.axis.as_dvec3());
+    let theta_o = (n.cos_o.clamp(-1.0, 1.0) as f64).acos() + moved + 1.0e-6;
+    let cos_o = if theta_o >= std::f64::consts::PI { -1.0 } else { theta_o.cos() as f32 };
     LightTreeNode {
-        min: b.min.to_array(),
-        phi: b.phi,
-        max: b.max.to_array(),
-        cos_o: b.cos_o,
-        axis: b.axis.to_array(),
-        cos_e: b.cos_e,
-        child_or_light: 0,
-        flags: if b.two_sided { TWO_SIDED } else { 0 },
-        ..Default::default()
+        centre: n.centre.to_array(),
+        radius: n.radius,
+        phi: n.phi,
+        axis,
+        cosines: encode_cosine(cos_o) | encode_cosine(n.cos_e) << 16,
+        child_or_light: if n.two_sided { LIGHT_TREE_TWO_SIDED } else { 0 },
     }
 }
 
@@ -283,8 +327,7 @@ fn build(
     let all = union_all(items);
     let mut node = node_of(&all);
     if items.len() == 1 {
-        node.child_or_light = items[0].0;
-        node.flags |= LEAF;
+        node.child_or_light |= items[0].0 | LIGHT_TREE_LEAF;
         nodes[at] = node;
         trails[items[0].0 as usize] = trail;
         return;
@@ -293,7 +336,7 @@ fn build(
     let first_child = nodes.len();
     nodes.push(LightTreeNode::default());
     nodes.push(LightTreeNode::default());
-    node.child_or_light = first_child as u32;
+    node.child_or_light |= first_child as u32;
     nodes[at] = node;
     assert!(depth + 1 < MAX_DEPTH, "light tree deeper than its 32-bit paths");
     let (left, right) = items.split_at_mut(mid);
@@ -355,16 +398,18 @@ fn split(items: &mut [(u32, LightBounds)], depth: u32) -> usize {
 }
 
 impl LightTree {
-    fn bounds_at(&self, index: usize) -> LightBounds {
+    fn bounds_at(&self, index: usize) -> NodeBounds {
         let n = &self.nodes[index];
-        LightBounds {
-            min: n.min.into(),
-            max: n.max.into(),
+        let cos_o = decode_cosine(n.cosines);
+        NodeBounds {
+            centre: n.centre.into(),
+            radius: n.radius,
+            axis: decode_normal(n.axis).into(),
             phi: n.phi,
-            axis: n.axis.into(),
-            cos_o: n.cos_o,
-            cos_e: n.cos_e,
-            two_sided: n.flags & TWO_SIDED != 0,
+            cos_o,
+            sin_o: safe_sqrt(1.0 - cos_o * cos_o),
+            cos_e: decode_cosine(n.cosines >> 16),
+            two_sided: n.child_or_light & LIGHT_TREE_TWO_SIDED != 0,
         }
     }
 
@@ -384,8 +429,8 @@ impl LightTree {
         }
         let mut pmf = share;
         let mut at = 0usize;
-        while self.nodes[at].flags & LEAF == 0 {
-            let child = self.nodes[at].child_or_light as usize;
+        while self.nodes[at].child_or_light & LIGHT_TREE_LEAF == 0 {
+            let child = (self.nodes[at].child_or_light & LIGHT_TREE_INDEX) as usize;
             let p0 = first_child_share(&self.bounds_at(child), &self.bounds_at(child + 1), p, n);
             let second = trail & 1 == 1;
             pmf *= if second { 1.0 - p0 } else { p0 };
@@ -399,7 +444,7 @@ impl LightTree {
 /// The first child's probability at a node: its share of the two importances, or of the two
 /// powers where both importances are zero (or underflow), so that every light with power keeps a
 /// positive probability wherever the estimate fails.
-pub fn first_child_share(a: &LightBounds, b: &LightBounds, p: Vec3, n: Vec3) -> f32 {
+pub fn first_child_share(a: &NodeBounds, b: &NodeBounds, p: Vec3, n: Vec3) -> f32 {
     let (ia, ib) = (a.importance(p, n), b.importance(p, n));
     if ia + ib > 0.0 { ia / (ia + ib) } else { a.phi / (a.phi + b.phi) }
 }
@@ -436,11 +481,11 @@ mod tests {
             let tree = build_light_tree(&lights, &[]);
             for (i, trail) in tree.trails.iter().enumerate() {
                 let (mut at, mut t) = (0usize, *trail);
-                while tree.nodes[at].flags & LEAF == 0 {
-                    at = tree.nodes[at].child_or_light as usize + (t & 1) as usize;
+                while tree.nodes[at].child_or_light & LIGHT_TREE_LEAF == 0 {
+                    at = (tree.nodes[at].child_or_light & LIGHT_TREE_INDEX) as usize + (t & 1) as usize;
                     t >>= 1;
                 }
-                assert_eq!(tree.nodes[at].child_or_light, i as u32, "{n} lights: light {i}'s path");
+                assert_eq!(tree.nodes[at].child_or_light & LIGHT_TREE_INDEX, i as u32, "{n} lights: light {i}'s path");
             }
             assert_eq!(tree.tree_nodes as usize, 2 * n - 1);
         }

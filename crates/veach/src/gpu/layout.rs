@@ -247,21 +247,35 @@ pub struct LightPick {
     pub tree_trail: u32,
 }
 
-/// A node of the light tree (crate::light_tree, shaders/light_tree.wgsl), 64 bytes: the bounds
-/// of the lights below it (box, power, emission cone) and its first child (the second follows
-/// it) or, in a leaf (flags & LEAF), its light.
+/// A node of the light tree (crate::light_tree, shaders/light_tree.wgsl), 32 bytes: the bounds
+/// of the lights below it (a sphere around their box, power, the emission cone's axis
+/// `encode_normal`d and its cosines as unorm16, rounded so that the cone only grows) and its first
+/// child (the second follows it) or, in a leaf (`LIGHT_TREE_LEAF`), its light.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
 pub struct LightTreeNode {
-    pub min: [f32; 3],
+    pub centre: [f32; 3],
+    pub radius: f32,
     pub phi: f32,
-    pub max: [f32; 3],
-    pub cos_o: f32,
-    pub axis: [f32; 3],
-    pub cos_e: f32,
+    pub axis: u32,
+    pub cosines: u32,
     pub child_or_light: u32,
-    pub flags: u32,
-    pub _pad: [u32; 2],
+}
+
+pub const LIGHT_TREE_LEAF: u32 = 1 << 31;
+pub const LIGHT_TREE_TWO_SIDED: u32 = 1 << 30;
+pub const LIGHT_TREE_INDEX: u32 = (1 << 30) - 1;
+
+/// `encode_normal` undone, as `decode_normal` in layout.wgsl does it.
+pub fn decode_normal(bits: u32) -> [f32; 3] {
+    let snorm = |h: u32| ((h as u16 as i16) as f32 / 32767.0).max(-1.0);
+    let (ex, ey) = (snorm(bits & 0xffff), snorm(bits >> 16));
+    let (mut x, mut y, z) = (ex, ey, 1.0 - ex.abs() - ey.abs());
+    let t = (-z).max(0.0);
+    x += if x >= 0.0 { -t } else { t };
+    y += if y >= 0.0 { -t } else { t };
+    let l = (x * x + y * y + z * z).sqrt();
+    [x / l, y / l, z / l]
 }
 
 #[repr(C)]
@@ -365,7 +379,7 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             light_tree_nodes,
             directional_lights
         }),
-        layout!(LightTreeNode { min, phi, max, cos_o, axis, cos_e, child_or_light, flags }),
+        layout!(LightTreeNode { centre, radius, phi, axis, cosines, child_or_light }),
         layout!(BvhNode { origin, exponents, low, lights_01, high, lights_23, children }),
         layout!(Vertex { p, normal }),
         layout!(IndexedTriangle { v0, v1, v2, material }),
