@@ -686,7 +686,7 @@ fn the_bench_renders_what_an_outside_reference_shows() {
 }
 
 /// Without --strategy a render takes the defaults measured on the scene zoo (MIS 1 + 1, the power
-/// heuristic, lights by power, 32 spp); naming a strategy gives the classic comparison's settings
+/// heuristic, lights by the light tree, 32 spp); naming a strategy gives the classic comparison's settings
 /// (MIS 32 + 32, every light, the balance heuristic, 1 spp); a flag given replaces its part.
 #[test]
 fn defaults_are_the_zoos_and_named_strategies_the_classic_ones() {
@@ -734,7 +734,7 @@ fn defaults_are_the_zoos_and_named_strategies_the_classic_ones() {
             "{v}"
         );
     };
-    expect(&settings_of("defaults", &[]), 1, 1, "power", "power", 32);
+    expect(&settings_of("defaults", &[]), 1, 1, "power", "tree", 32);
     expect(&settings_of("named-mis", &["--strategy", "mis"]), 32, 32, "balance", "each", 1);
     expect(&settings_of("defaults-bsdf", &["--light-selection", "bsdf", "--spp", "2"]), 1, 1, "power", "bsdf", 2);
 }

@@ -24,8 +24,9 @@ enum AovArg {
 #[derive(clap::Args)]
 #[command(after_long_help = "DEFAULTS
   Without --strategy, veach picks what measured best on its scene zoo (bench/zoo.py): MIS with
-  1 light + 1 BRDF sample per camera sample, the power heuristic, one light chosen by power per
-  light sample, 32 camera samples per pixel. Each option given replaces its part of that.
+  1 light + 1 BRDF sample per camera sample, the power heuristic, one light chosen per shading
+  point by the light tree per light sample, 32 camera samples per pixel. Each option given
+  replaces its part of that.
 
 SAMPLE COUNTS
   --spp is the number of camera samples per pixel (jittered over the pixel). At each camera
@@ -81,7 +82,7 @@ pub struct RenderArgs {
     /// MIS weights [default: power; balance with --strategy]
     #[arg(long, value_enum)]
     heuristic: Option<HeuristicArg>,
-    /// How light samples choose a light [default: power; each with --strategy]
+    /// How light samples choose a light [default: tree; each with --strategy]
     #[arg(long, value_enum)]
     light_selection: Option<SelectionArg>,
     /// How a light sample picks its point on an emitter triangle, or its direction towards a round light
@@ -156,12 +157,15 @@ fn aov_path(output: &std::path::Path, aov: AovArg) -> PathBuf {
 const DEFAULT_SPP: u32 = 32;
 
 pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
-    // Without --strategy: MIS 1 + 1, the power heuristic, lights by power, 32 spp. On the scene
-    // zoo (seeds 1 and 2, 35 scenes, 128x96, 16 spp; docs/performance.md, "Defaults on the scene
-    // zoo") it was the most robust setting measured: the classic MIS 32 + 32 with every light
-    // sampled took 0.40-0.41x its efficiency (geometric mean) and failed on the 5 scenes of 100
-    // lights or more (Mesa 22's loop limit); choosing lights per point (bsdf) gained 1.06-1.10x on
-    // average but fell to 0.23-0.35x on point and spot lights and degenerate emitters.
+    // Without --strategy: MIS 1 + 1, the power heuristic, lights by the light tree, 32 spp. On the
+    // scene zoo (35 scenes, 128x96, 16 spp; docs/performance.md, "Defaults on the scene zoo" and
+    // "The light tree on the zoo") it was the most robust setting measured: the classic MIS 32 +
+    // 32 with every light sampled took 0.40-0.41x the efficiency of lights by power and failed on
+    // the 5 scenes of 100 lights or more (Mesa 22's loop limit); choosing lights per point by the
+    // BSDF gained 1.06-1.10x over power on average but fell to 0.23-0.35x on point and spot lights
+    // and degenerate emitters; the light tree gained 1.36x over power on average (seed 1), 1.2-12x
+    // on every scene of 100 lights or more, and chose no worse per sample anywhere but one glossy
+    // scene (1.12x power's relMSE there).
     let named = args.strategy.is_some();
     let strategy = args.strategy.map_or(Strategy::Mis, strategy_of);
     let (default_light, default_brdf) = if named { strategy.default_sample_counts() } else { (1, 1) };
@@ -223,7 +227,7 @@ pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
         light_selection: match (args.light_selection, named) {
             (Some(l), _) => selection_of(l),
             (None, true) => veach::LightSelection::Each,
-            (None, false) => veach::LightSelection::Power,
+            (None, false) => veach::LightSelection::Tree,
         },
         light_sampling: light_sampling_of(args.light_sampling),
         sampler: sampler_of(args.sampler),

@@ -101,7 +101,7 @@ pub fn scale(args: ScaleArgs) -> Result<()> {
         ExecutionArg::Wavefront => ", the wavefront kernels",
     };
     outln!(
-        "{}x{}, {} spp, MIS 1 + 1 (the light sweep also light sampling, 2 samples), lights by power{execution}, median of {} renders;\n× first: the median of the renders' ratios to the sweep's first point, each rendered in the same turn (smallest–largest)\n",
+        "{}x{}, {} spp, MIS 1 + 1 (the light sweep also light sampling, 2 samples), lights by the light tree{execution}, median of {} renders;\n× first: the median of the renders' ratios to the sweep's first point, each rendered in the same turn (smallest–largest)\n",
         config.width,
         config.height,
         config.spp,

@@ -50,7 +50,7 @@ pub fn info(path: &Path) -> Result<()> {
     let features = veach::features::SceneFeatures::detect(&scene);
     outln!("  features: {}", features.describe());
     // Whether MIS renders of it may take --control-variate (the check `veach render` makes).
-    let controlled = RenderSettings { control_variate: true, ..RenderSettings::mis_power() };
+    let controlled = RenderSettings { control_variate: true, ..RenderSettings::recommended() };
     let emitters = scene.emissive_triangle_count() as u32;
     match veach::control_variate::check(&features, emitters, &controlled) {
         Ok(()) => outln!("  control variate: takes --control-variate"),

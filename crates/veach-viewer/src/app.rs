@@ -33,7 +33,7 @@ impl ViewerOptions {
     pub fn new(scene: PathBuf) -> ViewerOptions {
         ViewerOptions {
             scene,
-            settings: RenderSettings { spp: 4096, ..RenderSettings::mis_power() },
+            settings: RenderSettings { spp: 4096, ..RenderSettings::recommended() },
             camera: None,
             reference: None,
             exposure: 0.0,
@@ -393,12 +393,21 @@ impl ViewerApp {
             });
         });
         ui.add_enabled_ui(c.strategy.samples_lights(), |ui| {
-            ui.label("light selection");
-            ui.radio_value(&mut c.light_selection, LightSelection::Each, "every light");
-            ui.radio_value(&mut c.light_selection, LightSelection::Uniform, "one, uniformly");
-            ui.radio_value(&mut c.light_selection, LightSelection::Power, "one, by power");
-            ui.radio_value(&mut c.light_selection, LightSelection::Bsdf, "one, by BSDF and power");
-            ui.radio_value(&mut c.light_selection, LightSelection::Tree, "one, by the light tree");
+            // A list, not radio buttons: five rows would push the panel's lower controls off a
+            // small window.
+            let selections = [
+                (LightSelection::Each, "every light"),
+                (LightSelection::Uniform, "one, uniformly"),
+                (LightSelection::Power, "one, by power"),
+                (LightSelection::Bsdf, "one, by BSDF and power"),
+                (LightSelection::Tree, "one, by the light tree"),
+            ];
+            let shown = selections.iter().find(|(s, _)| *s == c.light_selection).map_or("", |(_, n)| *n);
+            egui::ComboBox::from_label("light selection").selected_text(shown).show_ui(ui, |ui| {
+                for (selection, name) in selections {
+                    ui.selectable_value(&mut c.light_selection, selection, name);
+                }
+            });
             ui.horizontal(|ui| {
                 ui.label("point on a light, uniform in");
                 ui.radio_value(&mut c.light_sampling, LightSampling::Area, "area");

@@ -83,20 +83,20 @@ impl ScaleRow {
     }
 }
 
-/// The settings every point renders with: `RenderSettings::mis_power` at the configured size.
+/// The settings every point renders with: `RenderSettings::recommended` at the configured size.
 pub fn scale_settings(config: &ScaleConfig) -> RenderSettings {
     RenderSettings {
         width: config.width,
         height: config.height,
         spp: config.spp,
         execution: config.execution,
-        ..RenderSettings::mis_power()
+        ..RenderSettings::recommended()
     }
 }
 
 /// What each sweep renders: both sweeps MIS 1 + 1 (`scale_settings`); the light sweep also light
-/// sampling alone, 2 light samples chosen by power, whose cost is all light selection, light
-/// sampling and shadow rays (MIS also traces BRDF rays, which find light only where there are
+/// sampling alone, 2 light samples chosen by the light tree, whose cost is all light selection,
+/// light sampling and shadow rays (MIS also traces BRDF rays, which find light only where there are
 /// lights to find: see docs/performance.md).
 pub fn scale_strategies(config: &ScaleConfig, sweep: &str) -> Vec<(&'static str, RenderSettings)> {
     let mis = scale_settings(config);

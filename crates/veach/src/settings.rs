@@ -192,15 +192,15 @@ pub struct RenderSettings {
 
 impl RenderSettings {
     /// MIS with 1 light + 1 BRDF sample per camera sample, the power heuristic and one light
-    /// chosen by power per light sample (the bench's mis-power): the viewer's start and `veach
-    /// scale`'s setting.
-    pub fn mis_power() -> RenderSettings {
+    /// chosen per shading point by the light tree per light sample: `veach render`'s defaults
+    /// (measured on the scene zoo), the viewer's start and `veach scale`'s setting.
+    pub fn recommended() -> RenderSettings {
         RenderSettings {
             strategy: Strategy::Mis,
             light_samples: 1,
             brdf_samples: 1,
             heuristic: Heuristic::Power,
-            light_selection: LightSelection::Power,
+            light_selection: LightSelection::Tree,
             ..Default::default()
         }
     }
