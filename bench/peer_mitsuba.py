@@ -113,7 +113,7 @@ def main():
     ap.add_argument("--mitsuba-reference-spp", type=int, default=4096)
     ap.add_argument("--veach", default="target/release/veach")
     ap.add_argument("--veach-sampler", default="sobol", choices=["sobol", "independent"])
-    ap.add_argument("--veach-light-selection", default="bsdf", choices=["power", "bsdf", "uniform"],
+    ap.add_argument("--veach-light-selection", default="bsdf", choices=["power", "bsdf", "uniform", "tree"],
                     help="how veach's timed renders choose their one light (the reference samples each)")
     ap.add_argument("--veach-light-sampling", default="area", choices=["area", "solid-angle", "cone"],
                     help="how veach's timed renders sample a point or direction on the chosen light: area (the "
