@@ -3,18 +3,21 @@
 # 4 ranges of a 64-spp image, `veach merge` adds them, and the merge must equal the one-machine
 # render up to float rounding (relMSE < 1e-10; one sample's noise is ~1e-2). Then a missing
 # part must make the merge fail, naming its range, and a 2-task bench array must merge into one
-# report. Run as root from anywhere, after `cargo build --release`.
+# report. Run from anywhere (as root, or with sudo), after `cargo build --release`.
 set -euo pipefail
 root=$(cd "$(dirname "$0")/../.." && pwd)
 veach="$root/target/release/veach"
 [[ -x "$veach" ]] || cargo build --release -p veach-cli --manifest-path "$root/Cargo.toml"
+# The cluster's setup needs root (packages, daemons): sudo where this is not root.
+sudo=""
+if [[ $EUID -ne 0 ]]; then sudo="sudo"; fi
 # Daemons this test starts, it stops; a cluster that was already up is left running.
 started=$(pgrep -x slurmctld >/dev/null && echo no || echo yes)
-"$root/scripts/slurm/single-node.sh" >/dev/null
+$sudo "$root/scripts/slurm/single-node.sh" >/dev/null
 work=$(mktemp -d)
 cleanup() {
     rm -rf "$work"
-    if [[ $started == yes ]]; then "$root/scripts/slurm/single-node.sh" --stop; fi
+    if [[ $started == yes ]]; then $sudo "$root/scripts/slurm/single-node.sh" --stop; fi
 }
 trap cleanup EXIT
 scene="$root/assets/veach-mis.gltf"
