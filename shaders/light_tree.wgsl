@@ -103,6 +103,21 @@ fn first_child_share(a: LightTreeNode, b: LightTreeNode) -> f32 {
     return a.phi / (a.phi + b.phi);
 }
 
+// An inner node's two children (side by side in light_tree) and the first one's probability at
+// the tree point: one step of the walk, and of its retracing.
+struct TreeStep {
+    first: LightTreeNode,
+    second: LightTreeNode,
+    p0: f32,
+}
+
+fn tree_step(node: LightTreeNode) -> TreeStep {
+    let i = node.child_or_light & LIGHT_TREE_INDEX;
+    let first = light_tree[i];
+    let second = light_tree[i + 1u];
+    return TreeStep(first, second, first_child_share(first, second));
+}
+
 // The probability of choosing any one directional light: each gets one share and the tree one
 // (pbrt-v4's pInfinite).
 fn directional_share() -> f32 {
@@ -134,17 +149,15 @@ fn select_light_from_tree(u_in: f32) -> SelectedLight {
     if !is_leaf(node) {
         // Tested at its end (integrator.wgsl's `render` says why).
         loop {
-            let first = light_tree[node.child_or_light & LIGHT_TREE_INDEX];
-            let second = light_tree[(node.child_or_light & LIGHT_TREE_INDEX) + 1u];
-            let p0 = first_child_share(first, second);
-            if u < p0 {
-                u = remap_below(u, p0);
-                pmf *= p0;
-                node = first;
+            let step = tree_step(node);
+            if u < step.p0 {
+                u = remap_below(u, step.p0);
+                pmf *= step.p0;
+                node = step.first;
             } else {
-                u = remap_above(u, p0);
-                pmf *= 1.0 - p0;
-                node = second;
+                u = remap_above(u, step.p0);
+                pmf *= 1.0 - step.p0;
+                node = step.second;
             }
             depth++;
             if is_leaf(node) || depth >= MAX_LIGHT_TREE_DEPTH {
@@ -170,15 +183,13 @@ fn light_tree_pmf(index: u32) -> f32 {
     var depth = 0u;
     if !is_leaf(node) {
         loop {
-            let first = light_tree[node.child_or_light & LIGHT_TREE_INDEX];
-            let second = light_tree[(node.child_or_light & LIGHT_TREE_INDEX) + 1u];
-            let p0 = first_child_share(first, second);
+            let step = tree_step(node);
             if (trail & 1u) == 0u {
-                pmf *= p0;
-                node = first;
+                pmf *= step.p0;
+                node = step.first;
             } else {
-                pmf *= 1.0 - p0;
-                node = second;
+                pmf *= 1.0 - step.p0;
+                node = step.second;
             }
             trail >>= 1u;
             depth++;

@@ -771,12 +771,14 @@ fn a_merge_of_sample_ranges_is_the_whole_render() {
     std::fs::create_dir_all(&dir).unwrap();
     let scene = assets("veach-mis.gltf");
     let path = |name: &str| dir.join(name).to_str().unwrap().to_owned();
-    let render = |name: &str, first: &str, spp: &str| {
-        let o = veach(&[
+    // A render of samples first..first+spp into `name`, of `scene_file` with `extra` options.
+    let render_of = |scene_file: &str, name: &str, first: &str, spp: &str, extra: &[&str]| {
+        let out = path(name);
+        let mut args = vec![
             "render",
-            &scene,
+            scene_file,
             "-o",
-            &path(name),
+            &out,
             "--width",
             "96",
             "--height",
@@ -786,9 +788,12 @@ fn a_merge_of_sample_ranges_is_the_whole_render() {
             "--spp",
             spp,
             "-q",
-        ]);
+        ];
+        args.extend(extra);
+        let o = veach(&args);
         assert!(o.status.success(), "{}", stderr(&o));
     };
+    let render = |name: &str, first: &str, spp: &str| render_of(&scene, name, first, spp, &[]);
     render("whole.exr", "0", "64");
     render("a.exr", "0", "16");
     render("b.exr", "16", "24");
@@ -821,40 +826,8 @@ fn a_merge_of_sample_ranges_is_the_whole_render() {
     // A missing part, an overlap, another seed or another scene: refused, naming what is wrong,
     // and the output is left as it was.
     let before = std::fs::read(path("merged.exr")).unwrap();
-    let o = veach(&[
-        "render",
-        &scene,
-        "-o",
-        &path("seed1.exr"),
-        "--width",
-        "96",
-        "--height",
-        "64",
-        "--first-sample",
-        "16",
-        "--spp",
-        "24",
-        "--seed",
-        "1",
-        "-q",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
-    let o = veach(&[
-        "render",
-        &assets("cornell-box.gltf"),
-        "-o",
-        &path("other.exr"),
-        "--width",
-        "96",
-        "--height",
-        "64",
-        "--first-sample",
-        "16",
-        "--spp",
-        "24",
-        "-q",
-    ]);
-    assert!(o.status.success(), "{}", stderr(&o));
+    render_of(&scene, "seed1.exr", "16", "24", &["--seed", "1"]);
+    render_of(&assets("cornell-box.gltf"), "other.exr", "16", "24", &[]);
     for (parts, expect, says) in [
         (vec!["a.exr", "c.exr"], None, "samples 16..40 are missing"),
         (vec!["a.exr", "b.exr"], Some("64"), "samples 40..64 are missing"),

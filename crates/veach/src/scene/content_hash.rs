@@ -27,13 +27,24 @@ impl std::fmt::Write for Fnv1a {
 }
 
 impl Scene {
-    /// The hash of the scene's triangles, materials, lights, cameras and textures: their `Debug`
-    /// text (floats print the shortest text that reads back as the same value) and the texels'
-    /// bytes. Warnings are left out.
+    /// The hash of the scene's triangles (their floats' bits), materials, lights and cameras (their
+    /// `Debug` text: floats print the shortest text that reads back as the same value; they are
+    /// few) and textures (the texels' bytes). Warnings are left out.
     pub fn content_hash(&self) -> u64 {
         use std::fmt::Write;
         let mut h = Fnv1a(Fnv1a::OFFSET_BASIS);
-        let _ = write!(h, "{:?}{:?}{:?}{:?}", self.triangles, self.materials, self.lights, self.cameras);
+        for t in &self.triangles {
+            let floats =
+                t.p.iter()
+                    .chain(&t.n)
+                    .flat_map(|v| v.to_array())
+                    .chain(t.uv.iter().flatten().flat_map(|v| v.to_array()));
+            for f in floats {
+                h.bytes(&f.to_bits().to_le_bytes());
+            }
+            h.bytes(&t.material.to_le_bytes());
+        }
+        let _ = write!(h, "{:?}{:?}{:?}", self.materials, self.lights, self.cameras);
         for t in &self.textures {
             let _ = write!(h, "{} {}x{} {:?} {:?} {}", t.name, t.width, t.height, t.wrap_s, t.wrap_t, t.nearest);
             h.bytes(bytemuck::cast_slice(&t.texels));
