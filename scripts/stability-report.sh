@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The stability suite's report: `veach bench` on every stress scene (crates/veach/src/assets/
+# The stability suite's report: `veach bench` on every stress scene (crates/veach-scenes/src/
 # stress.rs), area against solid-angle sampling of emitter triangles, written to docs/stability/
 # (report.md, results.csv, a plot and an equal-time grid per scene). docs/stability.md reads it.
 # Every stress scene by default (or those named in STRESS_SCENES="..."). About 4 minutes on

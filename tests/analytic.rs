@@ -11,9 +11,9 @@ mod common;
 use common::*;
 use glam::Vec3;
 use std::f64::consts::PI;
-use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData, Punctual};
 use veach::scene::Camera;
 use veach::{Heuristic, LightSelection, RenderSettings, Sampler, Strategy};
+use veach_scenes::gltf_writer::{GltfBuilder, MaterialDesc, MeshData, Punctual};
 
 const ALBEDO: f64 = 0.5;
 const SIZE: u32 = 16;
@@ -232,7 +232,7 @@ fn area_and_point_light_on_a_lambertian_plane_match_the_closed_form() {
 /// MIS weight's retracing, or a light the walk could not reach, would shift regions by many σ.
 #[test]
 fn many_lights_chosen_by_the_tree_match_the_closed_form() {
-    let mut rng = veach::assets::SplitMix64(11);
+    let mut rng = veach_scenes::SplitMix64(11);
     let mut r = move || rng.next_f32() as f64;
     let mut g = GltfBuilder::new();
     plane(&mut g);

@@ -88,7 +88,7 @@ fn renders_exr_png_and_pfm_with_stats() {
 /// reference without light, before spending the sweep's time on them.
 #[test]
 fn the_bench_refuses_scenes_it_cannot_measure() {
-    use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
+    use veach_scenes::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
     let dir = out_dir();
     let mut g = GltfBuilder::new();
     let m = g.material(&MaterialDesc::lambert("grey", glam::Vec3::splat(0.5)));
@@ -335,7 +335,7 @@ fn help_explains_the_sample_counts() {
 #[test]
 fn generated_assets_match_the_shipped_files() {
     let dir = out_dir();
-    for name in veach::assets::SHIPPED_SCENES {
+    for name in veach_scenes::SHIPPED_SCENES {
         let out = dir.join(format!("{name}.gltf"));
         let o = veach(&["generate", name, "-o", out.to_str().unwrap()]);
         assert!(o.status.success(), "{}", stderr(&o));
@@ -812,10 +812,10 @@ fn a_merge_of_sample_ranges_is_the_whole_render() {
     let (_, _, whole) = veach::image_io::read_image(Path::new(&path("whole.exr"))).unwrap();
     let (_, _, merged) = veach::image_io::read_image(Path::new(&path("merged.exr"))).unwrap();
     let (_, _, first) = veach::image_io::read_image(Path::new(&path("a.exr"))).unwrap();
-    let relmse = veach::bench::error_metrics(&merged, &whole).relmse;
+    let relmse = veach_bench::bench::error_metrics(&merged, &whole).relmse;
     assert!(relmse < 1e-10, "merged against whole: relMSE {relmse:e}");
     // The check has teeth: a part alone is the noise of its own samples away.
-    let part_relmse = veach::bench::error_metrics(&first, &whole).relmse;
+    let part_relmse = veach_bench::bench::error_metrics(&first, &whole).relmse;
     assert!(part_relmse > 1e-6, "samples 0..16 against 0..64: relMSE {part_relmse:e}");
     let header = veach::image_io::read_metadata(Path::new(&path("merged.exr"))).unwrap();
     let value = |k: &str| header.iter().find(|(n, _)| n == k).map(|(_, v)| v.clone());

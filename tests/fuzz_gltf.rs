@@ -15,9 +15,9 @@ use glam::{Mat4, Vec3};
 use serde_json::{Value, json};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
-use veach::assets::SplitMix64 as Rng;
-use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData, Punctual};
 use veach::scene::LightKind;
+use veach_scenes::SplitMix64 as Rng;
+use veach_scenes::gltf_writer::{GltfBuilder, MaterialDesc, MeshData, Punctual};
 
 fn dir() -> PathBuf {
     let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("veach-tests").join("fuzz-gltf");

@@ -6,9 +6,9 @@ mod common;
 use common::*;
 use glam::{Mat4, Vec3};
 use std::time::Duration;
-use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
 use veach::scene::Camera;
 use veach::{RenderSettings, Strategy};
+use veach_scenes::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
 
 fn small(strategy: Strategy, seed: u32) -> RenderSettings {
     let (light_samples, brdf_samples) = (2, 2);
@@ -75,9 +75,9 @@ fn an_image_rendered_in_tiles_is_the_image_rendered_whole() {
         assert_eq!(whole.rays, tiled.rays);
         assert!(!tiled.interrupted);
     }
-    assert_eq!(veach::render::tile_rows(19, 5), [0..4, 4..9, 9..14, 14..19]);
-    assert_eq!(veach::render::tile_rows(8, 8), vec![0..8]);
-    assert_eq!(veach::render::tile_rows(3, 1), [0..1, 1..2, 2..3]);
+    assert_eq!(veach::headless::tile_rows(19, 5), [0..4, 4..9, 9..14, 14..19]);
+    assert_eq!(veach::headless::tile_rows(8, 8), vec![0..8]);
+    assert_eq!(veach::headless::tile_rows(3, 1), [0..1, 1..2, 2..3]);
 }
 
 #[test]

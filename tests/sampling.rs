@@ -18,10 +18,10 @@ mod common;
 use common::*;
 use glam::{DVec3, Vec3};
 use std::f64::consts::PI;
-use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
 use veach::gpu::layout::{self, FrameParams, TestParams};
 use veach::gpu::test_kernel::{TestKernel, routine};
 use veach::render::GpuScene;
+use veach_scenes::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
 
 const SAMPLES: u32 = 1 << 20;
 /// Histogram resolution: bins in the (compressed) polar angle and in azimuth.
@@ -599,13 +599,7 @@ fn light_selection_matches_its_probabilities() {
     let intensities = [1.0f32, 3.0, 10.0, 30.0, 100.0, 1000.0];
     for (i, &v) in intensities.iter().enumerate() {
         let pos = Vec3::new(i as f32, 1.0, 0.0);
-        g.punctual_light(
-            &format!("p{i}"),
-            veach::assets::gltf_writer::Punctual::Point,
-            Vec3::splat(v),
-            pos,
-            Vec3::ZERO,
-        );
+        g.punctual_light(&format!("p{i}"), veach_scenes::gltf_writer::Punctual::Point, Vec3::splat(v), pos, Vec3::ZERO);
     }
     let scene = upload(&load(&g, "chi2-selection"));
     let total: f32 = intensities.iter().sum();
@@ -644,7 +638,7 @@ fn light_selection_matches_its_probabilities() {
 /// host's probabilities of all lights sum to 1; the light without power is never chosen.
 #[test]
 fn the_light_tree_chooses_lights_with_the_probabilities_it_reports() {
-    let mut rng = veach::assets::SplitMix64(5);
+    let mut rng = veach_scenes::SplitMix64(5);
     let mut r = move || rng.next_f32();
     let mut g = GltfBuilder::new();
     let mut n_lights = 0;
@@ -660,7 +654,7 @@ fn the_light_tree_chooses_lights_with_the_probabilities_it_reports() {
         g.add_mesh(&format!("quad {i}"), &quad, m, glam::Mat4::IDENTITY);
         n_lights += 1;
     }
-    use veach::assets::gltf_writer::Punctual;
+    use veach_scenes::gltf_writer::Punctual;
     for i in 0..14 {
         let p = Vec3::new(r() * 4.0 - 2.0, r() * 2.0 + 0.5, r() * 4.0 - 2.0);
         let kind = if i % 2 == 0 { Punctual::Point } else { Punctual::Spot { inner: 0.3, outer: 0.6 } };

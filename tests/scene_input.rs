@@ -4,8 +4,8 @@
 use glam::Vec3;
 use serde_json::json;
 use std::path::{Path, PathBuf};
-use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData, Punctual};
 use veach::scene::LightKind;
+use veach_scenes::gltf_writer::{GltfBuilder, MaterialDesc, MeshData, Punctual};
 
 fn dir() -> PathBuf {
     let d = PathBuf::from(env!("CARGO_TARGET_TMPDIR")).join("veach-tests").join("scene-input");

@@ -6,10 +6,10 @@ mod common;
 use common::*;
 use glam::{Mat4, Vec3};
 use std::time::Duration;
-use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData, Punctual};
 use veach::features::KernelKey;
 use veach::gpu::baked_triangles::BAKED_TRIANGLES_MAX;
 use veach::{Execution, LightSampling, LightSelection, RenderSettings, Strategy};
+use veach_scenes::gltf_writer::{GltfBuilder, MaterialDesc, MeshData, Punctual};
 
 fn point_lit_plane() -> veach::Scene {
     let mut g = GltfBuilder::new();
@@ -127,7 +127,7 @@ fn specialised_kernels_render_the_generic_kernels_image() {
 /// `veach scale`'s grid of 64 lights over a glossy gold floor just above its matte one, written as
 /// `file`.
 fn glossy_light_grid(file: &str) -> veach::Scene {
-    let mut glossy = veach::assets::scale::light_scene(64, 64);
+    let mut glossy = veach_scenes::scale_scenes::light_scene(64, 64);
     let gold = glossy.material(&MaterialDesc::metal("gold", Vec3::new(0.9, 0.7, 0.3), 0.3));
     let floor = MeshData::quad(
         Vec3::new(-2.0, 0.01, -2.0),
@@ -153,7 +153,7 @@ fn glossy_light_grid(file: &str) -> veach::Scene {
 fn kernels_whose_direction_rays_wait_render_the_loops_image() {
     let waits = renderer().gpu.auto_execution().waits_direction_rays();
     let mut grids = Vec::new();
-    let matte = veach::assets::scale::light_scene(64, 64);
+    let matte = veach_scenes::scale_scenes::light_scene(64, 64);
     grids.push(("grid", load(&matte, "waiting-grid")));
     grids.push(("glossy grid", glossy_light_grid("waiting-glossy-grid")));
     let (mut waited, mut gridded) = (0, 0);
@@ -229,13 +229,13 @@ fn kernels_whose_direction_rays_wait_render_the_loops_image() {
 #[test]
 fn kernels_with_the_emitters_grid_render_the_generic_kernels_image() {
     let mut scenes = vec![
-        ("grid", load(&veach::assets::scale::light_scene(64, 64), "emitter-grid-grid")),
+        ("grid", load(&veach_scenes::scale_scenes::light_scene(64, 64), "emitter-grid-grid")),
         ("veach-mis", shipped_scene("veach-mis")),
-        ("cornell sphere", load(&veach::assets::scale::triangle_scene(400), "emitter-grid-sphere")),
+        ("cornell sphere", load(&veach_scenes::scale_scenes::triangle_scene(400), "emitter-grid-sphere")),
     ];
     scenes.push(("glossy grid", glossy_light_grid("emitter-grid-glossy")));
-    for &name in veach::assets::stress::STRESS_SCENES {
-        scenes.push((name, load(&veach::assets::stress::stress_scene(name).unwrap(), &format!("emitter-grid-{name}"))));
+    for &name in veach_scenes::stress::STRESS_SCENES {
+        scenes.push((name, load(&veach_scenes::stress::stress_scene(name).unwrap(), &format!("emitter-grid-{name}"))));
     }
     let mut compared = 0;
     for (name, scene) in scenes {
@@ -442,9 +442,9 @@ fn wavefront_kernels_render_the_megakernels_image() {
 fn triangles_compiled_into_the_kernel_render_the_bvhs_image() {
     let cpu = renderer().gpu.adapter_info.device_type == wgpu::DeviceType::Cpu;
     let (mut baked_scenes, mut boxed_scenes, mut listed_scenes, mut camera_scenes) = (0, 0, 0, 0);
-    let stress = veach::assets::stress::STRESS_SCENES
+    let stress = veach_scenes::stress::STRESS_SCENES
         .iter()
-        .map(|&name| (name, load(&veach::assets::stress::stress_scene(name).unwrap(), &format!("baked-{name}"))));
+        .map(|&name| (name, load(&veach_scenes::stress::stress_scene(name).unwrap(), &format!("baked-{name}"))));
     for (name, scene) in stress.chain([("cornell-box", shipped_scene("cornell-box"))]) {
         if scene.triangles.len() > BAKED_TRIANGLES_MAX {
             continue;
@@ -511,9 +511,9 @@ fn camera_rays_by_edge_planes_find_the_closest_hit_lists_hits() {
     if renderer().gpu.adapter_info.device_type != wgpu::DeviceType::Cpu {
         return; // triangles are baked on CPU adapters only
     }
-    let stress = veach::assets::stress::STRESS_SCENES
+    let stress = veach_scenes::stress::STRESS_SCENES
         .iter()
-        .map(|&name| (name, load(&veach::assets::stress::stress_scene(name).unwrap(), &format!("camera-{name}"))));
+        .map(|&name| (name, load(&veach_scenes::stress::stress_scene(name).unwrap(), &format!("camera-{name}"))));
     let mut tested = 0;
     for (name, scene) in stress.chain([("cornell-box", shipped_scene("cornell-box"))]) {
         if scene.triangles.len() > BAKED_TRIANGLES_MAX {
@@ -653,7 +653,7 @@ fn a_wall_at_the_edge_of_the_scene_shadows_a_delta_light_beyond_it() {
 #[test]
 fn every_kernel_renders_the_same_image_with_the_control_variate() {
     let stress = ["touching-light", "grazing-light"]
-        .map(|name| (name, load(&veach::assets::stress::stress_scene(name).unwrap(), &format!("cv-{name}"))));
+        .map(|name| (name, load(&veach_scenes::stress::stress_scene(name).unwrap(), &format!("cv-{name}"))));
     for (name, scene) in stress.into_iter().chain([("cornell-box", shipped_scene("cornell-box"))]) {
         let camera = scene.camera(None).unwrap();
         let bvh_scene = renderer().upload_scene_with(&scene, veach::render::BvhMemory::Storage).unwrap();

@@ -148,7 +148,7 @@ fn check_scene(scene_name: &str, width: u32, height: u32, block: u32, reference:
 
 use Heuristic::{Balance, Power as PowerHeuristic};
 use glam::{Mat4, Vec3};
-use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
+use veach_scenes::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
 
 /// A 4×4 floor, `left` material for x < 0 and `right` for x > 0, lit by the emitter `light`
 /// (radiance (6, 6, 5)), seen from above and in front; written as glTF, returns its path.
@@ -188,10 +188,10 @@ fn check_floor_scene(path: &str, configs: &[Config]) {
     check_scene(path, 24, 24, 6, config("reference", Strategy::Mis, 256, 8, 8, Each, Balance), configs);
 }
 
-/// A stress scene (`veach::assets::stress`) written as glTF; returns its path.
+/// A stress scene (`veach_scenes::stress`) written as glTF; returns its path.
 fn stress_scene_file(name: &str) -> String {
     let path = output_dir("scenes").join(format!("stress-{name}.gltf"));
-    veach::assets::stress::stress_scene(name).unwrap().write(&path).unwrap();
+    veach_scenes::stress::stress_scene(name).unwrap().write(&path).unwrap();
     path.to_str().unwrap().to_owned()
 }
 
@@ -557,7 +557,7 @@ fn per_point_light_choice_keeps_lights_whose_centre_is_below_the_horizon() {
 #[test]
 fn direction_samples_find_every_light_of_a_flat_grid_of_many() {
     let path = output_dir("scenes").join("light-grid-64.gltf");
-    veach::assets::scale::light_scene(64, 64).write(&path).unwrap();
+    veach_scenes::scale_scenes::light_scene(64, 64).write(&path).unwrap();
     check_scene(
         path.to_str().unwrap(),
         24,

@@ -1,12 +1,12 @@
-//! The stability suite on stiff and extreme scenes (`veach::assets::stress`): no strategy ever
+//! The stability suite on stiff and extreme scenes (`veach_scenes::stress`): no strategy ever
 //! accumulates a NaN or Inf; a scene far from the origin renders like the same scene at the
 //! origin; a camera sealed in a box sees no light leak in.
 
 mod common;
 
 use common::*;
-use veach::assets::stress::{STRESS_SCENES, stress_scene};
 use veach::{Heuristic, LightSelection, RenderSettings, Sampler, Strategy};
+use veach_scenes::stress::{STRESS_SCENES, stress_scene};
 
 fn stress(name: &str) -> veach::Scene {
     load(&stress_scene(name).expect("a stress scene"), &format!("stress-{name}"))
@@ -201,7 +201,7 @@ fn samples_cut_short_by_a_loop_limit_are_taken_again() {
 /// samples were cut short in the kernel with waiting rays.
 #[test]
 fn samples_cut_short_while_a_direction_ray_waits_are_taken_again() {
-    let scene = load(&veach::assets::scale::light_scene(64, 64), "stress-waiting-grid");
+    let scene = load(&veach_scenes::scale_scenes::light_scene(64, 64), "stress-waiting-grid");
     let camera = scene.camera(None).unwrap();
     let gpu_scene = upload(&scene);
     let s = RenderSettings {
@@ -257,7 +257,7 @@ fn a_camera_sample_over_the_loop_limit_is_an_error_not_a_dark_image() {
 #[test]
 fn a_light_that_shadows_itself_is_not_skipped() {
     use glam::{Mat4, Vec3};
-    use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
+    use veach_scenes::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
     let panel = |x_low: f32, facing: Vec3| {
         MeshData::quad(
             Vec3::new(x_low, 0.2, -1.0),

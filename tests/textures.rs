@@ -6,12 +6,13 @@ mod common;
 
 use common::*;
 use glam::{Mat4, Vec2, Vec3, Vec4};
-use veach::assets::gltf_writer::{GltfBuilder, MaterialDesc, MaterialTextures, MeshData, Punctual, TextureUse};
-use veach::assets::{texture_from, turned_texture_lambert};
 use veach::gpu::layout::{FrameParams, TestParams};
 use veach::gpu::test_kernel::{TestKernel, routine};
-use veach::scene::{Encoding, Scene, Wrap, srgb_to_linear};
+use veach::scene::{Encoding, Scene, srgb_to_linear};
+use veach_scenes::gltf_writer::Wrap;
 use veach::{RenderSettings, Strategy};
+use veach_scenes::gltf_writer::{GltfBuilder, MaterialDesc, MaterialTextures, MeshData, Punctual, TextureUse};
+use veach_scenes::{texture_from, turned_texture_lambert};
 
 fn noise_texture(
     name: &str,
@@ -19,7 +20,7 @@ fn noise_texture(
     wrap: (Wrap, Wrap),
     nearest: bool,
     seed: u64,
-) -> veach::assets::gltf_writer::TextureDesc {
+) -> veach_scenes::gltf_writer::TextureDesc {
     let texels: Vec<[u8; 4]> = {
         let mut u = uniforms(seed);
         (0..size.0 * size.1).map(|_| std::array::from_fn(|_| (u() * 256.0) as u8)).collect()

@@ -167,7 +167,7 @@ fn error_curve_falls_as_samples_accumulate_and_saves_as_csv() {
     assert!(last.seconds > first.seconds && last.spp > first.spp);
     // The last point is the error of the image on screen against the reference.
     let reference = &h.state().curves.reference.as_ref().unwrap().pixels;
-    let now = veach::bench::error_metrics(&image(&h), reference).relmse;
+    let now = veach_bench::bench::error_metrics(&image(&h), reference).relmse;
     assert!((last.relmse - now).abs() <= 1e-9 * now.max(1.0), "curve {} vs image {now}", last.relmse);
     // The error falls as samples accumulate, but not smoothly as 1/spp: at 48×48 one pixel on
     // the floor by the boxes carries 40-90% of relMSE (rare bright samples where the reference

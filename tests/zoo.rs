@@ -8,7 +8,7 @@ use veach::{LightSelection, RenderSettings, Strategy};
 
 #[test]
 fn every_zoo_scene_loads_and_renders() {
-    let scenes = veach::assets::zoo::zoo(1);
+    let scenes = veach_scenes::zoo::zoo(1);
     for z in scenes {
         let scene = load(&z.builder, &format!("zoo-{}", z.name));
         let camera = scene.camera(None).unwrap_or_else(|e| panic!("{}: {e}", z.name));

@@ -38,7 +38,7 @@ def pfm(path):
         assert float(f.readline()) < 0, "little-endian PFM"
         return struct.unpack(f"<{w * h * 3}f", f.read(w * h * 12))
 merged, whole = pfm(sys.argv[1]), pfm(sys.argv[2])
-# relMSE as veach's bench computes it (crates/veach/src/bench.rs, error_metrics; epsilon 1e-2).
+# relMSE as veach's bench computes it (crates/veach-bench/src/bench.rs, error_metrics; epsilon 1e-2).
 rel = sum((a - b) ** 2 / (b * b + 1e-2) for a, b in zip(merged, whole)) / len(whole)
 print(f"slurm: merged 4 parts against the one-machine render: relMSE {rel:.3e}")
 assert rel < 1e-10, "the merge is not the one-machine render"

@@ -4,11 +4,11 @@
 
 use std::path::PathBuf;
 use std::sync::OnceLock;
-use veach::assets::gltf_writer::GltfBuilder;
 use veach::output::{Contributions, RenderOutput};
 use veach::render::GpuScene;
 use veach::scene::{Camera, Scene};
 use veach::{GpuContext, RenderSettings, Renderer};
+use veach_scenes::gltf_writer::GltfBuilder;
 
 /// The renderer on the machine's adapter (lavapipe in CI). Compiled once per test binary.
 pub fn renderer() -> &'static Renderer {

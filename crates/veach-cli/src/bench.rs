@@ -108,8 +108,8 @@ pub fn bench(args: BenchArgs) -> Result<()> {
     if args.merge {
         return merge_tasks(&args.scenes, &args.output);
     }
-    use veach::bench::Budget;
-    use veach::bench_run::{BenchConfig, bench_scene, bench_units, csv, read_given_reference, slope_warnings};
+    use veach_bench::bench::Budget;
+    use veach_bench::run::{BenchConfig, bench_scene, bench_units, csv, read_given_reference, slope_warnings};
     if args.width == 0 || args.height == 0 || args.max_spp == 0 || args.seeds == 0 {
         bail!("--width, --height, --max-spp and --seeds must be at least 1");
     }
@@ -154,8 +154,8 @@ pub fn bench(args: BenchArgs) -> Result<()> {
         budgets,
         seeds: args.seeds,
         strategies: match &args.strategies {
-            Some(names) => veach::bench::strategies_by_name(names).map_err(|e| anyhow::anyhow!(e))?,
-            None => veach::bench::default_strategies(),
+            Some(names) => veach_bench::bench::strategies_by_name(names).map_err(|e| anyhow::anyhow!(e))?,
+            None => veach_bench::bench::default_strategies(),
         },
         reference_spp: args.reference_spp.unwrap_or((16 * args.max_spp).max(256)),
         reference: match &args.reference {
@@ -265,7 +265,7 @@ pub fn bench(args: BenchArgs) -> Result<()> {
                 .curves
                 .iter()
                 .find(|c| c.strategy == r.strategy)
-                .and_then(veach::bench::fit_sample_convergence)
+                .and_then(veach_bench::bench::fit_sample_convergence)
                 .map(|(_, s)| format!("{s:.2}"))
                 .unwrap_or_else(|| "-".into());
             outln!("{:<16} {:<12} {:>10.1} {:>12.3e} {:>8}", b.scene, r.strategy, r.spp, r.metrics.relmse, slope);

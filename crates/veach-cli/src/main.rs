@@ -56,7 +56,7 @@ enum Command {
     Generate {
         /// Scene name, or `zoo`
         #[arg(value_parser = clap::builder::PossibleValuesParser::new(
-            veach::assets::scene_names().into_iter().chain(["zoo"])
+            veach_scenes::scene_names().into_iter().chain(["zoo"])
         ))]
         name: String,
         /// Output file (.gltf); for `zoo` a folder

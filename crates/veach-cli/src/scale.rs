@@ -51,7 +51,7 @@ pub struct ScaleArgs {
 }
 
 pub fn scale(args: ScaleArgs) -> Result<()> {
-    use veach::scale::{ScaleConfig, run_scale, scale_csv, scale_report, scale_steps};
+    use veach_bench::scale::{ScaleConfig, run_scale, scale_csv, scale_report, scale_steps};
     if args.width == 0 || args.height == 0 || args.spp == 0 || args.repeats == 0 {
         bail!("--width, --height, --spp and --repeats must be at least 1");
     }

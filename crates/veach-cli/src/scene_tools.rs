@@ -86,7 +86,7 @@ fn image_info(path: &Path) -> Result<()> {
 pub fn export_mitsuba(path: &Path, output: &Path, camera: Option<&str>, round_lights_as_spheres: bool) -> Result<()> {
     let scene = veach::load_gltf(path)?;
     let camera = scene.camera(camera).map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?;
-    veach::mitsuba::export(&scene, &camera, output, round_lights_as_spheres)
+    veach_bench::mitsuba::export(&scene, &camera, output, round_lights_as_spheres)
         .with_context(|| format!("{}", path.display()))?;
     errln!("wrote {}", output.join("scene.xml").display());
     Ok(())
@@ -96,8 +96,8 @@ pub fn generate(name: &str, output: &Path, seed: u64) -> Result<()> {
     if name == "zoo" {
         return generate_zoo(output, seed);
     }
-    let builder = veach::assets::generate_scene(name).with_context(|| format!("unknown scene '{name}'"))?;
-    builder.write(output)?;
+    let builder = veach_scenes::generate_scene(name).with_context(|| format!("unknown scene '{name}'"))?;
+    builder.write(output).with_context(|| format!("cannot write {}", output.display()))?;
     errln!("wrote {}", output.display());
     Ok(())
 }
@@ -106,9 +106,10 @@ pub fn generate(name: &str, output: &Path, seed: u64) -> Result<()> {
 fn generate_zoo(output: &Path, seed: u64) -> Result<()> {
     std::fs::create_dir_all(output).with_context(|| format!("cannot create {}", output.display()))?;
     let mut index = String::from("name,family,what\n");
-    let scenes = veach::assets::zoo::zoo(seed);
+    let scenes = veach_scenes::zoo::zoo(seed);
     for s in &scenes {
-        s.builder.write(&output.join(format!("{}.gltf", s.name)))?;
+        let path = output.join(format!("{}.gltf", s.name));
+        s.builder.write(&path).with_context(|| format!("cannot write {}", path.display()))?;
         index.push_str(&format!("{},{},\"{}\"\n", s.name, s.family, s.what));
     }
     let csv = output.join("zoo.csv");

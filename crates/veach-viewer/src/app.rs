@@ -211,7 +211,7 @@ impl ViewerApp {
     fn sync(&mut self) {
         let (settings, camera) = if self.rendering_reference {
             let w = self.wanted_settings();
-            let mut s = veach::bench::reference_settings(w.width, w.height, REFERENCE_SPP);
+            let mut s = veach_bench::bench::reference_settings(w.width, w.height, REFERENCE_SPP);
             s.hide_emitters = w.hide_emitters;
             (s, self.orbit.camera())
         } else {

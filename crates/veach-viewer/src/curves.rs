@@ -1,10 +1,10 @@
 //! Error against time while the image accumulates: relMSE (the bench's measure, ε as in
-//! `veach::bench::RELMSE_EPSILON`) of the current image against a reference, one curve per
+//! `veach_bench::bench::RELMSE_EPSILON`) of the current image against a reference, one curve per
 //! accumulation, earlier ones kept for comparison.
 
 use std::path::Path;
 use veach::RenderOutput;
-use veach::bench::error_metrics;
+use veach_bench::bench::error_metrics;
 
 pub struct Reference {
     pub width: u32,

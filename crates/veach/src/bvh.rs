@@ -29,14 +29,6 @@ pub struct Bvh {
     pub sah_cost: f32,
 }
 
-impl Bvh {
-    /// Nodes the kernels read: the wide nodes collapsed from this tree, each holding its
-    /// children's boxes (`gpu::bvh_nodes`).
-    pub fn gpu_nodes(&self) -> usize {
-        crate::gpu::bvh_nodes::wide_node_count(&self.nodes)
-    }
-}
-
 /// obvhs's medium preset with leaves collapsed at a node cost of 2 triangle tests instead of 3:
 /// smaller leaves. Measured with Mesa 25's lavapipe, 256×256, 32 spp, medians of 3: Cornell box
 /// 0.90-0.92× the render time (light, mis, mis-lobes), Veach scene 0.96-0.99×, textured scene
@@ -50,22 +42,10 @@ pub fn build_bvh(triangles: &[Triangle]) -> Bvh {
     build_bvh_with(triangles, build_params())
 }
 
-/// A BVH of at most `max_nodes` GPU nodes (`Bvh::gpu_nodes`) where larger leaves make one: the
-/// tree of `build_bvh`, or failing that obvhs's own medium preset (leaves collapsed at a node cost
-/// of 3 triangle tests), or, if that does not fit either, the first. On lavapipe a BVH in a uniform
-/// buffer (at most 64 KiB) renders faster even with the larger leaves it may need (docs/performance.md,
-/// "Small BVHs in a uniform buffer").
-pub fn build_bvh_fitting(triangles: &[Triangle], max_nodes: usize) -> Bvh {
-    let bvh = build_bvh(triangles);
-    // Larger leaves take about a third of the nodes away, never half: a tree over twice the
-    // budget is not built a second time (a million triangles' would double the build time).
-    let nodes = bvh.gpu_nodes();
-    if nodes <= max_nodes || nodes > 2 * max_nodes {
-        return bvh;
-    }
-    let mut larger_leaves = build_bvh_with(triangles, BvhBuildParams::medium_build());
-    larger_leaves.build_time += bvh.build_time;
-    if larger_leaves.gpu_nodes() <= max_nodes { larger_leaves } else { bvh }
+/// obvhs's own medium preset: leaves collapsed at a node cost of 3 triangle tests, about a third
+/// fewer nodes than `build_bvh`'s (`gpu::bvh_nodes::build_bvh_fitting`).
+pub fn build_bvh_larger_leaves(triangles: &[Triangle]) -> Bvh {
+    build_bvh_with(triangles, BvhBuildParams::medium_build())
 }
 
 fn build_bvh_with(triangles: &[Triangle], params: BvhBuildParams) -> Bvh {
@@ -146,18 +126,6 @@ mod tests {
             }
         }
         assert!(seen.iter().all(|&c| c == 1), "a triangle is missing or duplicated");
-    }
-
-    #[test]
-    fn a_bvh_fits_a_node_budget_with_larger_leaves_where_it_can() {
-        let tris = grid(30);
-        let full = build_bvh(&tris).gpu_nodes();
-        assert_eq!(build_bvh_fitting(&tris, full).gpu_nodes(), full);
-        let fitted = build_bvh_fitting(&tris, full - 1);
-        assert!(fitted.gpu_nodes() < full, "no smaller tree than {full} nodes");
-        assert_eq!(fitted.order.len(), tris.len());
-        // Far over the budget: the first build comes back, without a second.
-        assert_eq!(build_bvh_fitting(&tris, full / 3).gpu_nodes(), full);
     }
 
     #[test]

@@ -27,7 +27,7 @@ pub struct SceneFeatures {
     /// Some used material is a perfect mirror (roughness 0).
     pub any_mirror: bool,
     pub double_sided_emitters: bool,
-    /// Some area light is round (`gpu::scene_buffers::area_light_shape`), which
+    /// Some area light is round (`scene::light_shape::area_light_shape`), which
     /// `LightSampling::Cone` samples by its bounding cone.
     pub round_lights: bool,
     /// Every light is a round area light (and there is one).
@@ -57,12 +57,12 @@ impl SceneFeatures {
         let materials = || scene.materials.iter().zip(&used).filter(|(_, u)| **u).map(|(m, _)| m);
         let glossy = |m: &&crate::scene::Material| m.metallic > 0.0 || m.specular > 0.0;
         let has = |f: fn(&LightKind) -> bool| scene.lights.iter().any(|l| f(&l.kind));
-        let shapes: Vec<Option<crate::gpu::scene_buffers::AreaLightShape>> = scene
+        let shapes: Vec<Option<crate::scene::light_shape::AreaLightShape>> = scene
             .lights
             .iter()
             .map(|l| match &l.kind {
                 LightKind::Area { triangles, .. } => {
-                    Some(crate::gpu::scene_buffers::area_light_shape(scene, triangles))
+                    Some(crate::scene::light_shape::area_light_shape(scene, triangles))
                 }
                 _ => None,
             })

@@ -6,20 +6,16 @@
 
 pub mod accumulation;
 pub mod alias;
-pub mod assets;
-pub mod bench;
-pub mod bench_run;
 pub mod bvh;
 pub mod control_variate;
 pub mod error;
 pub mod features;
 pub mod gpu;
+pub mod headless;
 pub mod image_io;
 pub mod light_tree;
-pub mod mitsuba;
 pub mod output;
 pub mod render;
-pub mod scale;
 pub mod scene;
 pub mod settings;
 pub mod shaders;

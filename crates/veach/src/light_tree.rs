@@ -452,7 +452,7 @@ pub fn first_child_share(a: &NodeBounds, b: &NodeBounds, p: Vec3, n: Vec3) -> f3
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::assets::SplitMix64;
+    use veach_scenes::SplitMix64;
 
     fn random_lights(n: usize, seed: u64) -> Vec<Option<LightBounds>> {
         let mut rng = SplitMix64(seed);

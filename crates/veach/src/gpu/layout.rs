@@ -212,15 +212,15 @@ pub struct Light {
     pub intensity: [f32; 3],
     pub cos_outer: f32,
     pub bound_radius: f32,
-    /// 1 where the area light is convex (`gpu::light_subtrees::is_convex`): its shadow rays skip
+    /// 1 where the area light is convex (`scene::light_shape::is_convex`): its shadow rays skip
     /// the subtrees that only its triangles fill.
     pub convex: u32,
     /// 1 where the area light is convex and fills at least half of its bounding sphere's surface
-    /// (`gpu::light_subtrees::is_round`): `LightSampling::Cone` samples it by the cone that sphere
+    /// (`scene::light_shape::is_round`): `LightSampling::Cone` samples it by the cone that sphere
     /// subtends.
     pub round: u32,
     /// 1 + the corner of the light's first emitter triangle opposite the edge it shares with the
-    /// second where the two make a parallelogram (`gpu::light_subtrees::parallelogram_corner`),
+    /// second where the two make a parallelogram (`scene::light_shape::parallelogram_corner`),
     /// else 0: area samples then map the unit square onto the parallelogram linearly.
     pub parallelogram: u32,
 }

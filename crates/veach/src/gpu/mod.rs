@@ -8,6 +8,7 @@ pub mod context;
 pub mod emitter_grid;
 pub mod layout;
 pub mod light_subtrees;
+pub mod readback;
 pub mod scene_buffers;
 pub mod shadow_blockers;
 pub mod test_kernel;

@@ -2,13 +2,14 @@
 
 use super::bvh_nodes::encode_bvh_nodes;
 use super::layout::{self, NO_LIGHT};
-use super::light_subtrees::{is_convex, is_round, node_lights, parallelogram_corner};
+use super::light_subtrees::node_lights;
 use crate::alias::alias_table;
 use crate::bvh::Bvh;
 use crate::features::SceneFeatures;
 use crate::light_tree::{
     LightBounds, LightTree, area_light_bounds, build_light_tree, point_light_bounds, spot_light_bounds,
 };
+use crate::scene::light_shape::{AreaLightShape, area_light_shape, bounding_sphere, point_bounds};
 use crate::scene::{LightKind, Scene, TextureRef};
 use glam::Vec3;
 use std::collections::HashMap;
@@ -98,67 +99,12 @@ pub fn light_powers(scene: &Scene) -> Vec<f32> {
         .collect()
 }
 
-/// The smallest box holding `points` (min, max).
-fn point_bounds(points: impl Iterator<Item = Vec3>) -> (Vec3, Vec3) {
-    points.fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), p| (lo.min(p), hi.max(p)))
-}
-
-/// A sphere around `points`: the centre of their bounding box, the farthest point's distance
-/// (not the smallest sphere, but within a factor sqrt(3) of it), grown by a relative 1e-5 so that
-/// rounding never leaves a point outside.
-fn bounding_sphere(points: impl Iterator<Item = Vec3> + Clone) -> (Vec3, f32) {
-    let (lo, hi) = point_bounds(points.clone());
-    let centre = 0.5 * (lo + hi);
-    let radius = points.map(|p| p.distance(centre)).fold(0.0f32, f32::max);
-    (centre, radius * (1.0 + 1e-5) + 1e-5 * centre.abs().max_element())
-}
-
 /// The box around `points`, grown as bounding_sphere grows its radius, so that rounding cannot put
 /// an emitter's point outside it.
 fn bounding_box(points: impl Iterator<Item = Vec3>) -> (Vec3, Vec3) {
     let (lo, hi) = point_bounds(points);
     let pad = 1e-5 * (hi - lo).max_element() + 1e-5 * lo.abs().max(hi.abs()).max_element();
     (lo - Vec3::splat(pad), hi + Vec3::splat(pad))
-}
-
-fn triangle_corners(scene: &Scene, triangles: &[u32]) -> Vec<[Vec3; 3]> {
-    triangles.iter().map(|&t| scene.triangles[t as usize].p).collect()
-}
-
-/// What the kernels need to know of an area light's shape: convex (`light_subtrees::is_convex`:
-/// its shadow rays skip its subtrees), round (convex and `light_subtrees::is_round` with the
-/// bounding sphere its GPU record gets: `LightSampling::Cone` samples it by that sphere's cone)
-/// and a parallelogram (`light_subtrees::parallelogram_corner`: area samples map the unit square
-/// onto it linearly). The one place they are decided, for the light records and `SceneFeatures`.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
-pub struct AreaLightShape {
-    pub convex: bool,
-    pub round: bool,
-    /// The corner of the light's first triangle opposite the edge it shares with the second.
-    pub parallelogram: Option<u32>,
-}
-
-pub fn area_light_shape(scene: &Scene, triangles: &[u32]) -> AreaLightShape {
-    let corners = triangle_corners(scene, triangles);
-    let (_, radius) = bounding_sphere(corners.iter().flatten().copied());
-    let convex = is_convex(&corners);
-    AreaLightShape {
-        convex,
-        round: convex && is_round(&corners, radius),
-        parallelogram: parallelogram_corner(&corners),
-    }
-}
-
-/// The sphere a round area light approximates, for `mitsuba::export`'s analytic spheres: the
-/// bounding sphere's centre and the radius of equal surface area, sqrt(A / 4π) (so that the sphere
-/// emits the power the triangles do); None where the light is not round.
-pub fn round_light_sphere(scene: &Scene, triangles: &[u32]) -> Option<(Vec3, f32)> {
-    if !area_light_shape(scene, triangles).round {
-        return None;
-    }
-    let (centre, _) = bounding_sphere(triangle_corners(scene, triangles).into_iter().flatten());
-    let area: f64 = triangles.iter().map(|&t| scene.triangles[t as usize].area() as f64).sum();
-    Some((centre, (area / (4.0 * std::f64::consts::PI)).sqrt() as f32))
 }
 
 pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) -> SceneArrays {

@@ -5,7 +5,8 @@ use super::bindings;
 use super::bvh_nodes::BVH_STACK_SIZE;
 use super::layout::{FrameParams, TestParams};
 use crate::error::{Error, Result};
-use crate::render::{GpuScene, Kernel, Renderer, read_buffer};
+use crate::gpu::readback::read_buffer;
+use crate::render::{GpuScene, Kernel, Renderer};
 use crate::shaders;
 use wgpu::util::DeviceExt;
 

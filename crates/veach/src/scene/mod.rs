@@ -5,6 +5,7 @@ mod camera;
 mod content_hash;
 mod gltf_loader;
 mod gltf_resources;
+pub mod light_shape;
 mod texture;
 
 pub use camera::Camera;

@@ -20,11 +20,11 @@
 //! double-sided emitters) is refused with a message, so that the two renderers never render
 //! different scenes without saying so.
 
-use crate::error::{Error, Result};
-use crate::scene::{Camera, LightKind, Scene};
 use glam::Vec3;
 use std::fmt::Write as _;
 use std::path::Path;
+use veach::error::{Error, Result};
+use veach::scene::{Camera, LightKind, Scene};
 
 /// Writes `dir/scene.xml` and `dir/mesh-K.ply`; the XML takes `spp`, `width`, `height`,
 /// `emitter_samples`, `bsdf_samples` and `sampler` (a Mitsuba sampler plugin: `independent`,
@@ -67,7 +67,7 @@ pub fn export(scene: &Scene, camera: &Camera, dir: &Path, round_lights_as_sphere
     for light in &scene.lights {
         let LightKind::Area { triangles, radiance, double_sided } = &light.kind else { continue };
         let Some((centre, radius)) =
-            round_lights_as_spheres.then(|| crate::gpu::scene_buffers::round_light_sphere(scene, triangles)).flatten()
+            round_lights_as_spheres.then(|| veach::scene::light_shape::round_light_sphere(scene, triangles)).flatten()
         else {
             continue;
         };
@@ -154,7 +154,7 @@ pub fn export(scene: &Scene, camera: &Camera, dir: &Path, round_lights_as_sphere
 }
 
 /// The material's Mitsuba BSDF (see the module's table), or why it has none.
-fn bsdf_xml(material: &crate::scene::Material) -> Result<String> {
+fn bsdf_xml(material: &veach::scene::Material) -> Result<String> {
     if material.texture_refs().next().is_some() {
         return Err(Error::Options(format!("material '{}' has textures, which the export leaves out", material.name)));
     }
@@ -185,7 +185,7 @@ fn triple(v: Vec3) -> String {
 }
 
 /// Binary little-endian PLY: three vertices (position, shading normal) per triangle.
-fn write_ply(path: &Path, tris: &[&crate::scene::Triangle]) -> std::io::Result<()> {
+fn write_ply(path: &Path, tris: &[&veach::scene::Triangle]) -> std::io::Result<()> {
     let mut out = Vec::new();
     let header = format!(
         "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty float x\nproperty float y\nproperty float z\n\
@@ -218,7 +218,7 @@ mod tests {
 
     fn export_veach_scene(spheres: bool) -> (String, usize) {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/veach-mis.gltf");
-        let scene = crate::load_gltf(&path).unwrap();
+        let scene = veach::load_gltf(&path).unwrap();
         let dir = std::env::temp_dir().join(format!("veach-mitsuba-export-{}-{spheres}", std::process::id()));
         export(&scene, &scene.camera(None).unwrap(), &dir, spheres).unwrap();
         let xml = std::fs::read_to_string(dir.join("scene.xml")).unwrap();
@@ -241,10 +241,10 @@ mod tests {
         assert_eq!(mesh_files - sphere_mesh_files, 4, "the four lights' meshes are not written");
         // A UV sphere's area is a little under its bounding sphere's; the radius follows it.
         let scene =
-            crate::load_gltf(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/veach-mis.gltf")).unwrap();
+            veach::load_gltf(&Path::new(env!("CARGO_MANIFEST_DIR")).join("../../assets/veach-mis.gltf")).unwrap();
         for light in &scene.lights {
             let LightKind::Area { triangles, .. } = &light.kind else { panic!("area lights only") };
-            let (_, r) = crate::gpu::scene_buffers::round_light_sphere(&scene, triangles).unwrap();
+            let (_, r) = veach::scene::light_shape::round_light_sphere(&scene, triangles).unwrap();
             let corners = triangles.iter().flat_map(|&t| scene.triangles[t as usize].p);
             let (lo, hi) = corners.fold((Vec3::INFINITY, Vec3::NEG_INFINITY), |(lo, hi), p| (lo.min(p), hi.max(p)));
             let bound = 0.5 * (hi - lo).max_element();

@@ -9,8 +9,8 @@
 //! shape (displaced spheres, instanced rocks, grass blades); materials (diffuse, glossy, mirror,
 //! rough metal, textured); and the stiff cases of the stability suite (`stress`).
 
-use super::SplitMix64;
-use super::gltf_writer::{GltfBuilder, MaterialDesc, MaterialTextures, MeshData, Punctual, TextureUse};
+use crate::SplitMix64;
+use crate::gltf_writer::{GltfBuilder, MaterialDesc, MaterialTextures, MeshData, Punctual, TextureUse};
 use glam::{Mat4, Quat, Vec2, Vec3};
 use std::f32::consts::TAU;
 
@@ -327,7 +327,7 @@ fn material(seed: u64, kind: &str) -> GltfBuilder {
         "mirror" => MaterialDesc::metal("mirror", Vec3::splat(0.95), 0.0),
         "rough-metal" => MaterialDesc::metal("rough metal", colour, 0.6),
         _ => {
-            let checker = g.texture(&super::checker_texture());
+            let checker = g.texture(&crate::checker_texture());
             MaterialDesc {
                 roughness: 0.4,
                 specular: 0.5,
@@ -412,8 +412,8 @@ pub fn zoo(seed: u64) -> Vec<ZooScene> {
     for kind in ["diffuse", "glossy", "mirror", "rough-metal", "textured"] {
         push(format!("material-{kind}"), "materials", format!("spheres and a box, all {kind}"), material(seed, kind));
     }
-    for name in super::stress::STRESS_SCENES {
-        let builder = super::stress::stress_scene(name).expect("a stress scene");
+    for name in crate::stress::STRESS_SCENES {
+        let builder = crate::stress::stress_scene(name).expect("a stress scene");
         push(format!("stress-{name}"), "stiff", "the stability suite's scene".into(), builder);
     }
     out

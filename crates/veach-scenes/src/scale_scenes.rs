@@ -3,8 +3,8 @@
 //! against triangle count), and a floor under a fixed grid of small triangles of which K emit,
 //! with a total power that does not depend on K (render time against light count).
 
-use super::cornell_box;
-use super::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
+use crate::cornell_box;
+use crate::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
 use glam::{Mat4, Vec3};
 
 /// Triangles of the Cornell box without the sphere.

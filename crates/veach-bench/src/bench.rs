@@ -6,12 +6,12 @@
 //! RMSE, relMSE and MAE against a reference. The report adds the equal-time comparison, the
 //! time each strategy needs to reach a target error and the fitted convergence slope.
 
-use crate::error::{Error, Result};
-use crate::output::RenderOutput;
-use crate::render::{GpuScene, Renderer};
-use crate::scene::Camera;
-use crate::settings::{Heuristic, LightSampling, LightSelection, RenderSettings, Sampler, Strategy};
 use std::time::Duration;
+use veach::error::{Error, Result};
+use veach::output::RenderOutput;
+use veach::render::{GpuScene, Renderer};
+use veach::scene::Camera;
+use veach::settings::{Heuristic, LightSampling, LightSelection, RenderSettings, Sampler, Strategy};
 
 /// Bench renders leave out emitters seen directly: every strategy sees them through the same
 /// camera samples, so they add only pixel-coverage noise at their edges, the same for all.
@@ -194,7 +194,7 @@ pub fn render_reference(
     let mut settings = RenderSettings { hide_emitters, ..reference_settings(width, height, spp) };
     // Every light's own samples cost rays in proportion to the light count: past a few dozen
     // lights, one light chosen by power per light sample (16 of them) reaches a lower error.
-    let by_power = scene.light_count > MAX_LIGHTS_SAMPLED_EACH;
+    let by_power = scene.light_count() > MAX_LIGHTS_SAMPLED_EACH;
     if by_power {
         settings.light_selection = LightSelection::Power;
         settings.light_samples = 16;

@@ -2,13 +2,13 @@
 //! of relMSE against seconds, the equal-time image grid and a section of report.md.
 
 use crate::bench::*;
-use crate::error::{Error, Result};
-use crate::image_io;
-use crate::render::{GpuScene, Renderer};
-use crate::scene::{Camera, Scene};
-use crate::settings::RenderSettings;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+use veach::error::{Error, Result};
+use veach::image_io;
+use veach::render::{GpuScene, Renderer};
+use veach::scene::{Camera, Scene};
+use veach::settings::RenderSettings;
 
 pub struct BenchConfig {
     pub width: u32,

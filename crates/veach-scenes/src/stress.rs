@@ -3,8 +3,8 @@
 //! pushes an estimator towards a singularity of its pdf or the renderer towards the limits of
 //! f32 arithmetic.
 
-use super::cornell_box;
-use super::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
+use crate::cornell_box;
+use crate::gltf_writer::{GltfBuilder, MaterialDesc, MeshData};
 use glam::{Mat4, Vec3};
 
 /// Names accepted by `stress_scene` (and by `veach generate` as `stress-NAME`).

@@ -1,7 +1,6 @@
 //! A small glTF 2.0 writer for scenes built in code: the shipped assets and the test scenes.
 //! Geometry goes into one base64-embedded buffer, so every scene is a single `.gltf` file.
 
-use crate::scene::Wrap;
 use base64::Engine;
 use glam::{Mat4, Quat, Vec2, Vec3};
 use serde_json::{Value, json};
@@ -110,12 +109,16 @@ pub struct GltfBuilder {
     root: Option<Mat4>,
 }
 
+/// glTF sampler wrap modes (glTF 2.0 §5.26, sampler.wrapS / wrapT), as the codes the file stores.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Wrap {
+    Repeat = 10497,
+    ClampToEdge = 33071,
+    MirroredRepeat = 33648,
+}
+
 fn wrap_code(w: Wrap) -> u32 {
-    match w {
-        Wrap::Repeat => 10497,
-        Wrap::ClampToEdge => 33071,
-        Wrap::MirroredRepeat => 33648,
-    }
+    w as u32
 }
 
 impl GltfBuilder {
@@ -350,12 +353,21 @@ impl GltfBuilder {
         root
     }
 
-    pub fn write(&self, path: &Path) -> crate::Result<()> {
-        let text = serde_json::to_string_pretty(&self.to_json()).expect("JSON of plain values");
-        crate::image_io::write_atomically(path, |f| {
-            use std::io::Write;
-            f.write_all(text.as_bytes()).map_err(|e| e.to_string())
-        })
+    /// The glTF file's text.
+    pub fn to_text(&self) -> String {
+        serde_json::to_string_pretty(&self.to_json()).expect("JSON of plain values")
+    }
+
+    /// Writes the glTF file beside `path` and moves it into place, so that a failed write leaves
+    /// no half-written scene.
+    pub fn write(&self, path: &Path) -> std::io::Result<()> {
+        let mut tmp = path.as_os_str().to_owned();
+        tmp.push(".part");
+        std::fs::write(&tmp, self.to_text())
+            .and_then(|_| std::fs::rename(&tmp, path))
+            .inspect_err(|_| {
+                let _ = std::fs::remove_file(&tmp);
+            })
     }
 }
 

@@ -1,23 +1,23 @@
 //! `veach scale`: how loading, BVH build, GPU memory and render time grow with the triangle
 //! count, and how render time grows with the light count under power-based light selection.
-//! A benchmark (it prints a table and writes CSV); the scenes come from `assets::scale`.
+//! A benchmark (it prints a table and writes CSV); the scenes come from `veach_scenes::scale_scenes`.
 
-use crate::assets::scale::{light_scene, triangle_scene};
 use crate::bench::{median_spread, render_seconds};
-use crate::error::{Error, Result};
-use crate::gpu::layout::BvhNode;
-use crate::render::Renderer;
-use crate::settings::{RenderSettings, Strategy};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::time::Instant;
+use veach::error::{Error, Result};
+use veach::gpu::layout::BvhNode;
+use veach::render::Renderer;
+use veach::settings::{RenderSettings, Strategy};
+use veach_scenes::scale_scenes::{light_scene, triangle_scene};
 
 pub struct ScaleConfig {
     /// Where the generated scenes and scale.csv go.
     pub output: PathBuf,
     pub triangles: Vec<usize>,
     pub lights: Vec<usize>,
-    /// Triangles of the light sweep's grid (`assets::scale::light_scene`).
+    /// Triangles of the light sweep's grid (`veach_scenes::scale_scenes::light_scene`).
     pub light_grid: usize,
     pub width: u32,
     pub height: u32,
@@ -25,7 +25,7 @@ pub struct ScaleConfig {
     /// Renders per point; the median time is reported.
     pub repeats: u32,
     /// The kernels every render runs.
-    pub execution: crate::settings::Execution,
+    pub execution: veach::settings::Execution,
 }
 
 #[derive(Clone, Debug)]
@@ -115,8 +115,8 @@ struct ScalePoint {
     triangles: usize,
     lights: usize,
     load_seconds: f64,
-    gpu_scene: crate::render::GpuScene,
-    camera: crate::scene::Camera,
+    gpu_scene: veach::render::GpuScene,
+    camera: veach::scene::Camera,
     settings: Vec<(&'static str, RenderSettings)>,
     /// Per setting: the timed renders' seconds, and the rays of the last.
     times: Vec<Vec<f64>>,
@@ -128,17 +128,17 @@ fn prepare_point(
     config: &ScaleConfig,
     sweep: &'static str,
     name: &str,
-    builder: crate::assets::gltf_writer::GltfBuilder,
+    builder: veach_scenes::gltf_writer::GltfBuilder,
 ) -> Result<ScalePoint> {
     let path = config.output.join("scenes").join(format!("{name}.gltf"));
-    builder.write(&path)?;
+    builder.write(&path).map_err(|e| Error::Output { path: path.clone(), message: e.to_string() })?;
     let load_start = Instant::now();
-    let scene = crate::load_gltf(&path)?;
+    let scene = veach::load_gltf(&path)?;
     let load_seconds = load_start.elapsed().as_secs_f64();
     let camera = scene.camera(None).map_err(|m| Error::scene(&path, m))?;
     // Every size in storage memory, so that the sweep compares traversals alike: the smallest
     // would otherwise get the uniform BVH of lavapipe (`BvhMemory::Auto`).
-    let gpu_scene = renderer.upload_scene_with(&scene, crate::render::BvhMemory::Storage)?;
+    let gpu_scene = renderer.upload_scene_with(&scene, veach::render::BvhMemory::Storage)?;
     let settings = scale_strategies(config, sweep);
     for (_, s) in &settings {
         renderer.render(&gpu_scene, &RenderSettings { spp: 1, ..s.clone() }, &camera, &mut |_| true)?;

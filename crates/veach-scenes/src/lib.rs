@@ -2,13 +2,12 @@
 //! small analytic scenes for tests.
 
 pub mod gltf_writer;
-pub mod scale;
+pub mod scale_scenes;
 pub mod stress;
 pub mod zoo;
 
-use crate::scene::Wrap;
 use glam::{Mat4, Vec2, Vec3};
-use gltf_writer::{GltfBuilder, MaterialDesc, MaterialTextures, MeshData, TextureDesc, TextureUse};
+use gltf_writer::{GltfBuilder, MaterialDesc, MaterialTextures, MeshData, TextureDesc, TextureUse, Wrap};
 
 /// SplitMix64 (Steele, Lea & Flood, "Fast splittable pseudorandom number generators", OOPSLA
 /// 2014): the seeded numbers of generated scenes (the zoo) and of the loader's fuzz test.
