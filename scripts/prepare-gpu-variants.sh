@@ -46,8 +46,8 @@ fi
 mkdir -p .gpu/shaders/straight-line
 cp shaders/*.wgsl .gpu/shaders/straight-line/
 sed -i 's/if STRAIGHT_LINE_SAMPLE && AT_MOST_ONE_DIRECTION_SAMPLE/if AT_MOST_ONE_DIRECTION_SAMPLE/' \
-    .gpu/shaders/straight-line/integrator.wgsl
-grep -q "if AT_MOST_ONE_DIRECTION_SAMPLE && !CONE_SAMPLING {" .gpu/shaders/straight-line/integrator.wgsl
+    .gpu/shaders/straight-line/direct.wgsl
+grep -q "if AT_MOST_ONE_DIRECTION_SAMPLE && !CONE_SAMPLING {" .gpu/shaders/straight-line/direct.wgsl
 echo ".gpu/shaders/straight-line from main's shaders"
 # main's shaders with direction rays that wait in every megakernel (WAITING_DIRECTION_RAYS, set on
 # Mesa 22 only): the constant a `const` the binary cannot override, and the subgroup vote in the

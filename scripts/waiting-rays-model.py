@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
 """How many direction-ray passes a SIMD group runs per camera sample, with and without direction
-rays that wait (shaders/integrator.wgsl, estimate_radiance_waiting; docs/performance.md,
+rays that wait (shaders/waiting_rays.wgsl, estimate_radiance_waiting; docs/performance.md,
 "Direction rays that wait for the lanes beside them").
 
 Each lane takes one camera sample after another (a run of RUN samples per invocation); each sample

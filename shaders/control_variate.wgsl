@@ -130,7 +130,7 @@ fn unshadowed_light_integral(c: ShadingContext) -> vec3f {
     if all(k == vec3f(0.0)) {
         return vec3f(0.0);
     }
-    // Loops tested at their end (integrator.wgsl's `render` says why); an area light has a
+    // Loops tested at their end (megakernel.wgsl's `render` says why); an area light has a
     // polygon.
     var sum = vec3f(0.0);
     if light_count() > 0u {

@@ -23,7 +23,7 @@ override SINGLE_LIGHT: bool = false;
 // Light samples may pick directions by solid angle (frame.light_sampling); false: by area only.
 override SOLID_ANGLE_SAMPLING: bool = true;
 // Light samples may pick directions in round lights' bounding cones (frame.light_sampling ==
-// LIGHT_SAMPLING_CONE): they are then traced as direction samples (integrator.wgsl).
+// LIGHT_SAMPLING_CONE): they are then traced as direction samples (light_samples.wgsl).
 override CONE_SAMPLING: bool = true;
 // Some light sample may be a point on a light with a shadow ray; false where CONE_SAMPLING takes
 // every light (each is round), so the kernel has no shadow-ray traversal at all.
@@ -37,7 +37,7 @@ override TRIANGLE_PICKS: bool = true;
 // Where the driver branches around untaken code, baked kernels (traverse_baked.wgsl, the emitters'
 // list) and BVH kernels whose scene has an emitters' grid that pays (traverse_bvh.wgsl,
 // KernelKey::emitter_grid): a direction sample finds what it meets among the emitters alone
-// (trace_emitters), then a shadow ray tests the segment to it (integrator.wgsl,
+// (trace_emitters), then a shadow ray tests the segment to it (direction_samples.wgsl,
 // direction_sample_to_emitters).
 override EMITTER_LIST: bool = false;
 // Baked kernels for a render from the eye the camera list was built for (KernelKey::camera_list):
@@ -57,18 +57,18 @@ override CONTROL_VARIATE: bool = true;
 override AT_MOST_ONE_LIGHT_REQUEST: bool = false;
 override AT_MOST_ONE_DIRECTION_SAMPLE: bool = false;
 // With AT_MOST_ONE_DIRECTION_SAMPLE (and no cone sampling): a camera sample in straight-line code,
-// its direction sample's ray traced at a call site of its own (integrator.wgsl,
+// its direction sample's ray traced at a call site of its own (direct.wgsl,
 // estimate_radiance_straight), not on a second pass of one loop (KernelKey::straight_line_sample).
 override STRAIGHT_LINE_SAMPLE: bool = false;
 // With AT_MOST_ONE_DIRECTION_SAMPLE (MIS, no cone sampling, no control variate, no contribution
 // images, lights chosen by a table that does not depend on the point): a camera sample's
 // direction ray may wait in its invocation for a later sample's pass, so that the lanes of a SIMD
-// group trace theirs together (integrator.wgsl, estimate_radiance_waiting;
+// group trace theirs together (waiting_rays.wgsl, estimate_radiance_waiting;
 // KernelKey::waiting_direction_rays).
 override WAITING_DIRECTION_RAYS: bool = false;
 // With FOOTPRINT_SLOTS (traverse_baked.wgsl) and at most one direction sample: direction rays
 // wait in their invocation and are traced together after its camera samples
-// (integrator.wgsl, take_samples_deferred; KernelKey::deferred_direction_rays).
+// (waiting_rays.wgsl, take_samples_deferred; KernelKey::deferred_direction_rays).
 override DEFERRED_DIRECTION_RAYS: bool = false;
 // Threads per workgroup of the kernels that take a pixel each, in columns and rows
 // (KernelKey::workgroup). Not a specialisation: a size the driver runs fastest.

@@ -90,11 +90,11 @@ struct FrameParams {
     tile_row: u32,
     emitter_max: vec3f,
     image_height: u32,
-    // 1: no camera sample's direction ray waits for a later sample's pass (integrator.wgsl,
+    // 1: no camera sample's direction ray waits for a later sample's pass (waiting_rays.wgsl,
     // take_samples_waiting): set where samples cut short are taken again.
     finish_samples: u32,
     // The sequence index of a pixel's sample 0 (--first-sample): counts and sums stay per
-    // render, only the sample streams are offset (integrator.wgsl, pixel_sample_stream).
+    // render, only the sample streams are offset (megakernel.wgsl, pixel_sample_stream).
     first_sample: u32,
     // SELECT_TREE: the light tree's nodes (0: none), then this many directional lights' leaves
     // (light_tree.wgsl).
@@ -350,7 +350,7 @@ struct DeferredSample {
     rays: u32,
     // The camera sample's index (the pixel's own count of samples when its round began).
     sample: u32,
-    // The plan's light_weighting (integrator.wgsl's LIGHT_*), for its cone light samples.
+    // The plan's light_weighting (sample_plan.wgsl's LIGHT_*), for its cone light samples.
     light_weighting: u32,
     // The sample plan's m (each count 2^20 at most: settings.rs, MAX_SAMPLES_PER_CAMERA_SAMPLE).
     direction_samples: u32,

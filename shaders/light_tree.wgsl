@@ -147,7 +147,7 @@ fn select_light_from_tree(u_in: f32) -> SelectedLight {
     // keeps a malformed tree from looping.
     var depth = 0u;
     if !is_leaf(node) {
-        // Tested at its end (integrator.wgsl's `render` says why).
+        // Tested at its end (megakernel.wgsl's `render` says why).
         loop {
             let step = tree_step(node);
             if u < step.p0 {

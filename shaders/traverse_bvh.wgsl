@@ -44,7 +44,7 @@ fn trace_emitters(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
     let cells_start = EMITTER_GRID_HEADER;
     let entries_start = cells_start + u32(res.x * res.y * res.z) + 1u;
     let sh = ray_shear(dir);
-    // Like every loop here, tested at the end of its body (integrator.wgsl's `render` says why).
+    // Like every loop here, tested at the end of its body (megakernel.wgsl's `render` says why).
     loop {
         let c = u32((cell.z * res.y + cell.y) * res.x + cell.x);
         var i = emitter_grid_word(cells_start + c);
@@ -253,7 +253,7 @@ fn next_node(node: u32, t: vec4f, stack: ptr<function, TraversalStack>) -> u32 {
     // not, but ends a loop once no lane goes on (the Veach scene 0.97-0.98x there, when every push
     // went to memory; three pushes under `if`s before). Like every loop here it tests its end as
     // the last statement of its body, or Mesa 22.3 runs the body once more with no lane active
-    // (integrator.wgsl's `render`).
+    // (megakernel.wgsl's `render`).
     var k = u32(e1.x != missed) + u32(e2.x != missed) + u32(e3.x != missed);
     if k > 0u {
         loop {

@@ -1,4 +1,4 @@
-// wavefront.wgsl: the same estimate as `render` (integrator.wgsl), split into kernels so that
+// wavefront.wgsl: the same estimate as `render` (megakernel.wgsl), split into kernels so that
 // each one runs only the code its threads need. On lavapipe a branch costs its code in every
 // thread of the SIMD group, taken or not (docs/performance.md), so a megakernel pays for the
 // direction-sample code at every diffuse point; here it runs only on a compacted queue.
@@ -83,7 +83,7 @@ fn screen_direction_samples(c: ShadingContext, plan: SamplePlan, stream: SampleS
             screen = screen_direction_sample(c, plan, &s, screen);
         }
     } else {
-        // Tested at its end (integrator.wgsl's `render` says why).
+        // Tested at its end (megakernel.wgsl's `render` says why).
         if plan.m > 0u {
             var k = 0u;
             loop {
@@ -137,7 +137,7 @@ struct DirectionEstimates {
 // start at `light_dim`.
 fn estimate_direction_samples(c: ShadingContext, plan: SamplePlan, light_dim: u32, stream: ptr<function, SampleStream>, rays: ptr<function, u32>) -> DirectionEstimates {
     var sum = DirectionEstimates(vec3f(0.0), vec3f(0.0));
-    // Tested at its end (integrator.wgsl's `render` says why).
+    // Tested at its end (megakernel.wgsl's `render` says why).
     let end = plan.m + cone_passes(plan);
     if end > 0u {
         var k = 0u;

@@ -140,7 +140,7 @@ fn glossy_light_grid(file: &str) -> veach::Scene {
     load(&glossy, file)
 }
 
-/// Kernels whose direction rays wait for a later camera sample's pass (integrator.wgsl,
+/// Kernels whose direction rays wait for a later camera sample's pass (waiting_rays.wgsl,
 /// estimate_radiance_waiting; KernelKey::waiting_direction_rays) take the same samples as the
 /// generic kernel's loop, with the same values, and only add them up in another order: the same
 /// sample counts, rays and non-finite counts, and sums equal up to reordered sums' rounding. On
@@ -274,7 +274,7 @@ fn kernels_with_the_emitters_grid_render_the_generic_kernels_image() {
 }
 
 /// Baked megakernels whose camera rays test their pixel's footprint list (gpu/camera_footprints.rs)
-/// and whose direction rays wait for the end of the invocation's run (integrator.wgsl,
+/// and whose direction rays wait for the end of the invocation's run (waiting_rays.wgsl,
 /// take_samples_deferred) take the same samples as the generic kernel's loop, with the same values:
 /// the same counts and rays, and sums equal up to reordered sums' rounding. The Cornell box (the
 /// textured scene's 8 triangles are too few for the lists to pay), MIS 1 + 1, BRDF samples alone (every sample's ray deferred) and light samples

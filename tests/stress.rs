@@ -193,7 +193,7 @@ fn samples_cut_short_by_a_loop_limit_are_taken_again() {
 }
 
 /// The same where a camera sample's direction ray waits for a later sample's pass
-/// (integrator.wgsl, estimate_radiance_waiting): MIS with 64 light samples and one BRDF sample on
+/// (waiting_rays.wgsl, estimate_radiance_waiting): MIS with 64 light samples and one BRDF sample on
 /// `veach scale`'s grid of 64 lights, 256 camera samples per invocation. A sample cut short while
 /// an earlier one waits leaves the samples after that one in the sums; they fall back to the sums
 /// kept when it began to wait, and those samples are taken again. The image is the wavefront's

@@ -9,8 +9,8 @@ use glam::{Mat4, Vec2, Vec3, Vec4};
 use veach::gpu::layout::{FrameParams, TestParams};
 use veach::gpu::test_kernel::{TestKernel, routine};
 use veach::scene::{Encoding, Scene, srgb_to_linear};
-use veach_scenes::gltf_writer::Wrap;
 use veach::{RenderSettings, Strategy};
+use veach_scenes::gltf_writer::Wrap;
 use veach_scenes::gltf_writer::{GltfBuilder, MaterialDesc, MaterialTextures, MeshData, Punctual, TextureUse};
 use veach_scenes::{texture_from, turned_texture_lambert};
 

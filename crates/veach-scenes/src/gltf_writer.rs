@@ -363,11 +363,9 @@ impl GltfBuilder {
     pub fn write(&self, path: &Path) -> std::io::Result<()> {
         let mut tmp = path.as_os_str().to_owned();
         tmp.push(".part");
-        std::fs::write(&tmp, self.to_text())
-            .and_then(|_| std::fs::rename(&tmp, path))
-            .inspect_err(|_| {
-                let _ = std::fs::remove_file(&tmp);
-            })
+        std::fs::write(&tmp, self.to_text()).and_then(|_| std::fs::rename(&tmp, path)).inspect_err(|_| {
+            let _ = std::fs::remove_file(&tmp);
+        })
     }
 }
 

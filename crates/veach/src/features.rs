@@ -212,7 +212,7 @@ pub struct KernelKey {
     /// every branch under a mask, Mesa 22.3's lavapipe).
     pub footprint_slots: u32,
     /// With `footprint_slots`: direction rays wait in their invocation and are traced after its
-    /// camera samples (integrator.wgsl, take_samples_deferred).
+    /// camera samples (waiting_rays.wgsl, take_samples_deferred).
     pub deferred_direction_rays: bool,
     /// A BVH kernel's BRDF samples find emitters in the emitters' grid, then trace a shadow ray to
     /// what they find (`gpu::emitter_grid`; `EMITTER_LIST`), instead of a closest hit over the
@@ -383,7 +383,7 @@ impl KernelKey {
 }
 
 /// Whether a camera sample takes at most one light-sample request, and at most one direction
-/// sample, by the render's counts: the kernel's plans (integrator.wgsl, `sample_plan`) take at
+/// sample, by the render's counts: the kernel's plans (sample_plan.wgsl, `sample_plan`) take at
 /// most n light samples, or n + m at a mis-lobes point without a lobe to sample, each n of every
 /// light with `LightSelection::Each` (one light here), and at most m direction samples.
 pub fn at_most_one_sample(features: &SceneFeatures, settings: &RenderSettings) -> (bool, bool) {
@@ -494,7 +494,7 @@ fn cone_sampling(features: &SceneFeatures, settings: &RenderSettings) -> bool {
     features.round_lights && settings.light_sampling == crate::settings::LightSampling::Cone
 }
 
-/// Whether the megakernel takes its camera samples in straight-line code (integrator.wgsl,
+/// Whether the megakernel takes its camera samples in straight-line code (direct.wgsl,
 /// `estimate_radiance_straight`): the camera ray, its hit's shading and at most one direction
 /// sample, whose ray is traced at a second closest-hit call site, instead of on a second pass of
 /// one loop. Measured on Mesa 22's lavapipe alone (docs/performance.md, "Camera samples in
@@ -525,7 +525,7 @@ pub fn straight_line_sample(features: &SceneFeatures, settings: &RenderSettings,
 }
 
 /// Whether the megakernel lets a camera sample's direction ray wait in its invocation for a later
-/// sample's pass (integrator.wgsl, `estimate_radiance_waiting`), where lanes that have a ray
+/// sample's pass (waiting_rays.wgsl, `estimate_radiance_waiting`), where lanes that have a ray
 /// trace it together instead of each sample's ray on a pass that a SIMD group runs if any lane
 /// needs it. It applies to MIS with one BRDF sample and lights chosen independently of the point
 /// (no cone samples, control variate or contribution images), and was measured on lavapipe alone

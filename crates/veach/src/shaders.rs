@@ -26,10 +26,17 @@ pub const SHADER_FILES: &[(&str, &str)] = &[
     LANES,
     ("bsdf.wgsl", include_str!("../../../shaders/bsdf.wgsl")),
     ("lights.wgsl", include_str!("../../../shaders/lights.wgsl")),
+    ("light_selection.wgsl", include_str!("../../../shaders/light_selection.wgsl")),
     ("light_tree.wgsl", include_str!("../../../shaders/light_tree.wgsl")),
     ("mis.wgsl", include_str!("../../../shaders/mis.wgsl")),
     ("control_variate.wgsl", include_str!("../../../shaders/control_variate.wgsl")),
-    ("integrator.wgsl", include_str!("../../../shaders/integrator.wgsl")),
+    ("surface.wgsl", include_str!("../../../shaders/surface.wgsl")),
+    ("sample_plan.wgsl", include_str!("../../../shaders/sample_plan.wgsl")),
+    ("light_samples.wgsl", include_str!("../../../shaders/light_samples.wgsl")),
+    ("direction_samples.wgsl", include_str!("../../../shaders/direction_samples.wgsl")),
+    ("direct.wgsl", include_str!("../../../shaders/direct.wgsl")),
+    ("waiting_rays.wgsl", include_str!("../../../shaders/waiting_rays.wgsl")),
+    ("megakernel.wgsl", include_str!("../../../shaders/megakernel.wgsl")),
     ("wavefront.wgsl", include_str!("../../../shaders/wavefront.wgsl")),
 ];
 
@@ -77,7 +84,7 @@ const UNIFORM_CANDIDATES: [(&str, &str); 7] = [
     ("light_picks", "LightPick"),
 ];
 
-/// Name of the compute entry point in `integrator.wgsl`.
+/// Name of the compute entry point in `megakernel.wgsl`.
 pub const RENDER_ENTRY_POINT: &str = "render";
 /// The wavefront kernels' entry points in `wavefront.wgsl`, in dispatch order.
 pub const WAVEFRONT_ENTRY_POINTS: [&str; 3] = ["render_light_pass", "prepare_direction_pass", "render_direction_pass"];

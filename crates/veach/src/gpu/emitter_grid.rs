@@ -1,7 +1,7 @@
 //! A uniform grid over the area lights' triangles, for BVH kernels whose direction samples find
 //! emitters in two steps (`EMITTER_LIST`, `trace_emitters` in shaders/traverse_bvh.wgsl): the
 //! nearest emitting triangle along the ray from this grid alone, then a shadow ray to it
-//! (`direction_sample_to_emitters` in integrator.wgsl), as baked kernels do with their emitters'
+//! (`direction_sample_to_emitters` in direction_samples.wgsl), as baked kernels do with their emitters'
 //! list. A BRDF sample adds only the emission it finds, and a closest hit over the whole BVH walks
 //! the tree's depth to learn that a ray passes between small lights: about 6.3 four-wide steps
 //! over `veach scale`'s 10,000 lights, where the grid looks in one cell (docs/performance.md,

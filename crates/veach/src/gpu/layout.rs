@@ -75,7 +75,7 @@ pub struct FrameParams {
     pub emitter_centre: [f32; 3],
     pub emitter_radius: f32,
     pub sampler: u32,
-    /// At least 2: the trip count of `loop_budget_held` (integrator.wgsl), read at run time so
+    /// At least 2: the trip count of `loop_budget_held` (megakernel.wgsl), read at run time so
     /// that the compiler cannot unroll it.
     pub loop_check: u32,
     /// 1: the unshadowed diffuse light is a control variate (shaders/control_variate.wgsl).
@@ -91,7 +91,7 @@ pub struct FrameParams {
     /// The image's height; `height` is the pixel buffers' (a tile's rows).
     pub image_height: u32,
     /// 1: no camera sample's direction ray waits for a later sample's pass (`take_samples_waiting`
-    /// in integrator.wgsl): set where samples cut short are taken again.
+    /// in waiting_rays.wgsl): set where samples cut short are taken again.
     pub finish_samples: u32,
     /// The camera sample index of a pixel's sample 0: a render of samples [first_sample,
     /// first_sample + spp) of the one sample sequence (`--first-sample`, for renders split

@@ -1,6 +1,6 @@
 //! The triangles that no shadow ray can meet before its end. A shadow ray runs from a point of the
 //! scene (a point of some triangle, offset off it) to a point of an area light or a point or spot
-//! light's position, short of it by a margin (integrator.wgsl). A segment meets a plane at most
+//! light's position, short of it by a margin (light_samples.wgsl). A segment meets a plane at most
 //! once unless it lies in it, where the watertight test reports no hit (det = 0). So a triangle
 //! cannot block one when
 //! - every corner of the scene and every point or spot light lies on one closed side of its plane
