@@ -290,38 +290,11 @@ struct PixelCounters {
     truncated: u32,
 }
 
-// A read-only storage buffer, not a uniform: lavapipe (Mesa 22.3) folds uniform values into the
-// shader and compiles a new variant whenever they change, as row_start and sample_start do on
-// every dispatch; that cost ~12 ms and 0.7-7.6 MiB of never-freed memory per dispatch.
-@group(0) @binding(0) var<storage, read> frame: FrameParams;
-// Every entry point calls this first. On CPU adapters (KernelKey::frame_copy) shaders.rs renames
-// the binding above `frame_in`, declares `frame` a private variable and fills it here, once per
-// invocation: Mesa 22.3's lavapipe loads a storage word lane by lane, with a branch per lane and a
-// bounds test, at every read of `frame` (each sample reads a dozen fields), where a private
-// variable's fields are registers (Cornell box 0.75x; docs/performance.md, "The frame's
-// parameters copied once per invocation").
-fn load_frame() {}
-// On CPU adapters each of bindings 1-7 that fits in 64 KiB is a uniform array instead
-// (shaders.rs rewrites its line; render.rs, BvhMemory): their contents never change during a
-// render, so lavapipe compiles the kernel once.
-@group(0) @binding(1) var<storage, read> bvh_nodes: array<BvhNode>;
-@group(0) @binding(2) var<storage, read> vertices: array<Vertex>;
-@group(0) @binding(3) var<storage, read> triangles: array<IndexedTriangle>;
-// The index into `lights` of the area light each triangle belongs to, or NO_LIGHT (binding 23:
-// 8 to 22 are taken), read by triangle_light.
-@group(0) @binding(23) var<storage, read> triangle_lights: array<u32>;
-// On CPU adapters a scene of up to 16,384 triangles has them four to a vec4u in a uniform array
-// instead (shaders.rs rewrites this function and the line above): one gather where Mesa 22.3
-// loads a storage word lane by lane, once per hit (docs/performance.md, "Triangle lights in a
-// uniform array").
-fn triangle_light(tri: u32) -> u32 {
-    return triangle_lights[tri];
-}
-@group(0) @binding(4) var<storage, read> materials: array<Material>;
-@group(0) @binding(5) var<storage, read> lights: array<Light>;
-@group(0) @binding(6) var<storage, read> emitter_tris: array<EmitterTriangle>;
-// Choosing a light by power (SELECT_POWER, and SELECT_BSDF's power half).
-@group(0) @binding(7) var<storage, read> light_picks: array<LightPick>;
+// The frame's parameters (binding 0), the scene's arrays (1-7), triangle_lights (23) with
+// triangle_light(), the emitters' grid (25) with emitter_grid_word() and BVH_STACK_SIZE are
+// declared per kernel by crates/veach/src/gpu/bindings.rs (wgsl_declarations), from the table the
+// bind group layout is made of: storage or uniform, a private copy of the frame or none, as the
+// kernel's plan says. Every entry point calls load_frame() first.
 // Running sums per pixel: (sum of radiance, number of camera samples) and (sum of squares, 0).
 @group(0) @binding(8) var<storage, read_write> accum: array<vec4f>;
 @group(0) @binding(9) var<storage, read_write> accum_sq: array<vec4f>;

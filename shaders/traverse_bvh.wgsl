@@ -3,10 +3,8 @@
 // most 64 triangles on CPU adapters use traverse_baked.wgsl instead (BAKED_TRIANGLES_MAX).
 
 // The emitters' grid (crates/veach/src/gpu/emitter_grid.rs), where the kernel has one
-// (KernelKey::emitter_grid; EMITTER_LIST, features.wgsl): shaders.rs replaces this line with the
-// grid's binding and a read of it. Without one, EMITTER_LIST is false and it is never read.
-fn emitter_grid_word(i: u32) -> u32 { return 0u; }
-
+// (KernelKey::emitter_grid; EMITTER_LIST, features.wgsl), read by emitter_grid_word (declared with
+// the bindings, gpu/bindings.rs).
 fn emitter_grid_vec3f(i: u32) -> vec3f {
     return vec3f(bitcast<f32>(emitter_grid_word(i)), bitcast<f32>(emitter_grid_word(i + 1u)), bitcast<f32>(emitter_grid_word(i + 2u)));
 }
@@ -97,7 +95,8 @@ fn trace_camera_slots(dir: vec3f) -> Hit {
     return Hit(RAY_INF, 0.0, 0.0, 0u, false);
 }
 
-const BVH_STACK_SIZE: u32 = 96u;
+// BVH_STACK_SIZE is declared with the bindings (gpu/bindings.rs, wgsl_declarations): deeper
+// trees get a larger stack.
 
 // The traversal stack's entries below the top WINDOW (TraversalStack), shared by both traversals
 // (a ray's traversal ends before the next begins). At module scope it is zeroed once per

@@ -221,17 +221,20 @@ impl Renderer {
             footprints: key.footprint_slots > 0,
             emitter_grid: key.emitter_grid,
         };
+        let declared = bindings::DeclaredBindings {
+            uniform: key.uniform,
+            frame_copy: key.frame_copy,
+            emitter_grid: key.emitter_grid,
+            bvh_stack: key.bvh_stack,
+        };
         let source = shaders::render_kernel_source(
             key.textures,
-            key.uniform,
-            key.frame_copy,
+            &declared,
             key.baked.as_deref(),
-            key.bvh_stack,
             // Without subgroups each invocation decides alone (lanes_none.wgsl): the same image.
             key.waiting_direction_rays && self.gpu.device.features().contains(wgpu::Features::SUBGROUP),
             key.footprint_slots,
         );
-        let source = if key.emitter_grid { shaders::with_emitter_grid(source) } else { source };
         let constants = shaders::pipeline_constants(&source, &key.constants());
         let (pipelines, layout) = bindings::create_pipelines(
             &self.gpu.device,

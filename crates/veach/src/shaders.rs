@@ -3,18 +3,18 @@
 use std::borrow::Cow;
 use std::path::Path;
 
-use crate::features::UniformArrays;
 use crate::gpu::baked_triangles::{BakedList, BakedTriangles};
-use crate::gpu::bvh_nodes::BVH_STACK_SIZE;
+use crate::gpu::bindings::{DeclaredBindings, wgsl_declarations};
 
-/// The shader files in the order they are joined. Later files use what earlier ones declare.
-/// `TRAVERSAL` marks where the traversal goes: `traverse_bvh.wgsl`, or `traverse_baked.wgsl` with a
+/// The shader files in the order they are joined. `BINDINGS` marks where the declarations of the
+/// bindings a kernel's plan decides go (`gpu::bindings::wgsl_declarations`). `TRAVERSAL` marks where the traversal goes: `traverse_bvh.wgsl`, or `traverse_baked.wgsl` with a
 /// small scene's triangles written in. `TEXTURES` marks where the texture module goes:
 /// `textures.wgsl` for scenes with textures (and the generic kernel), `textures_none.wgsl` (same
 /// functions, no bindings) otherwise. `LANES` marks where the subgroup votes go: `lanes.wgsl` for
 /// kernels that use them on a device that has them, `lanes_none.wgsl` (same functions) otherwise.
 pub const SHADER_FILES: &[(&str, &str)] = &[
     ("layout.wgsl", include_str!("../../../shaders/layout.wgsl")),
+    BINDINGS,
     ("features.wgsl", include_str!("../../../shaders/features.wgsl")),
     ("rng.wgsl", include_str!("../../../shaders/rng.wgsl")),
     ("sampler.wgsl", include_str!("../../../shaders/sampler.wgsl")),
@@ -40,6 +40,7 @@ pub const SHADER_FILES: &[(&str, &str)] = &[
     ("wavefront.wgsl", include_str!("../../../shaders/wavefront.wgsl")),
 ];
 
+const BINDINGS: (&str, &str) = ("bindings", "");
 const TRAVERSAL: (&str, &str) = ("traversal", "");
 const TRAVERSE_BVH: (&str, &str) = ("traverse_bvh.wgsl", include_str!("../../../shaders/traverse_bvh.wgsl"));
 const TRAVERSE_BAKED: (&str, &str) = ("traverse_baked.wgsl", include_str!("../../../shaders/traverse_baked.wgsl"));
@@ -54,35 +55,13 @@ const LANES_OFF: (&str, &str) = ("lanes_none.wgsl", include_str!("../../../shade
 pub const TEST_KERNELS: (&str, &str) = ("test_kernels.wgsl", include_str!("../../../shaders/test_kernels.wgsl"));
 pub const TEST_ENTRY_POINT: &str = "run_test";
 
-/// The render kernel's source (with textures, and `baked` triangles or a traversal stack of
-/// `bvh_stack` entries) followed by the test kernels (see `gpu::test_kernel`).
-pub fn test_kernel_source(baked: Option<&BakedTriangles>, bvh_stack: u32) -> String {
+/// The render kernel's source (with textures, and `baked` triangles or the traversal declared by
+/// `declared`) followed by the test kernels (see `gpu::test_kernel`).
+pub fn test_kernel_source(baked: Option<&BakedTriangles>, declared: &DeclaredBindings) -> String {
     let (name, text) = TEST_KERNELS;
-    let render = render_kernel_source(true, UniformArrays::default(), false, baked, bvh_stack, false, 0);
+    let render = render_kernel_source(true, declared, baked, false, 0);
     format!("{render}// ---- shaders/{name} ----\n{}\n", shader_text(name, text))
 }
-
-/// How layout.wgsl declares the frame's parameters and fills their copy (`KernelKey::frame_copy`).
-const FRAME_BINDING: &str = "var<storage, read> frame: FrameParams;";
-const FRAME_LOAD: &str = "fn load_frame() {}";
-
-/// How layout.wgsl declares `triangle_lights` and reads it (`triangle_light`).
-const TRIANGLE_LIGHTS_BINDING: &str = "var<storage, read> triangle_lights: array<u32>;";
-const TRIANGLE_LIGHT_READ: &str = "return triangle_lights[tri];";
-
-/// How traverse_bvh.wgsl declares its stack's size (`gpu::bvh_nodes::BVH_STACK_SIZE`).
-const STACK_SIZE_DECLARATION: &str = "const BVH_STACK_SIZE: u32 = ";
-
-/// The arrays that may be uniform, as layout.wgsl declares them: name and element type.
-const UNIFORM_CANDIDATES: [(&str, &str); 7] = [
-    ("bvh_nodes", "BvhNode"),
-    ("vertices", "Vertex"),
-    ("triangles", "IndexedTriangle"),
-    ("materials", "Material"),
-    ("lights", "Light"),
-    ("emitter_tris", "EmitterTriangle"),
-    ("light_picks", "LightPick"),
-];
 
 /// Name of the compute entry point in `megakernel.wgsl`.
 pub const RENDER_ENTRY_POINT: &str = "render";
@@ -90,25 +69,26 @@ pub const RENDER_ENTRY_POINT: &str = "render";
 pub const WAVEFRONT_ENTRY_POINTS: [&str; 3] = ["render_light_pass", "prepare_direction_pass", "render_direction_pass"];
 
 /// The whole kernel source. Each file is preceded by a marker comment so that a line number in
-/// a WGSL error can be traced back to its file. The arrays of `uniform` with a length are read
-/// from uniform arrays of that length instead of storage buffers (`KernelKey::uniform`). With
-/// `baked` triangles, rays test those instead of traversing the BVH (`KernelKey::baked`); without,
-/// the traversal's stack holds `bvh_stack` entries (`KernelKey::bvh_stack`). With `frame_copy`
-/// each entry point copies the frame's parameters into a private variable (`KernelKey::frame_copy`).
-/// With `lane_votes` the invocations of a subgroup vote with subgroup operations (lanes.wgsl),
-/// which the device must have (wgpu's `Features::SUBGROUP`). A baked kernel's camera rays test
-/// footprint lists of `footprint_slots` triangles (`KernelKey::footprint_slots`; 0: none).
+/// a WGSL error can be traced back to its file. `declared` says how the frame, the scene arrays,
+/// the emitters' grid and the traversal's stack are declared (`KernelKey`'s uniform arrays,
+/// frame copy, emitters' grid and stack). With `baked` triangles, rays test those instead of
+/// traversing the BVH (`KernelKey::baked`), and camera rays test footprint lists of
+/// `footprint_slots` triangles (0: none). With `lane_votes` the invocations of a subgroup vote with
+/// subgroup operations (lanes.wgsl), which the device must have (wgpu's `Features::SUBGROUP`).
 pub fn render_kernel_source(
     textures: bool,
-    uniform: UniformArrays,
-    frame_copy: bool,
+    declared: &DeclaredBindings,
     baked: Option<&BakedTriangles>,
-    bvh_stack: u32,
     lane_votes: bool,
     footprint_slots: u32,
 ) -> String {
     let mut source = String::new();
     for &file in SHADER_FILES {
+        source.push_str(&format!("// ---- shaders/{} ----\n", file.0));
+        if file == BINDINGS {
+            source.push_str(&wgsl_declarations(declared));
+            continue;
+        }
         let (name, text) = match file {
             TRAVERSAL if baked.is_some() => TRAVERSE_BAKED,
             TRAVERSAL => TRAVERSE_BVH,
@@ -118,40 +98,12 @@ pub fn render_kernel_source(
             LANES => LANES_OFF,
             other => other,
         };
-        source.push_str(&format!("// ---- shaders/{name} ----\n"));
         let text = shader_text(name, text);
         match baked.filter(|_| file == TRAVERSAL) {
             Some(triangles) => source.push_str(&bake_triangles(&text, triangles, footprint_slots)),
             None => source.push_str(&text),
         }
         source.push('\n');
-    }
-    if bvh_stack != BVH_STACK_SIZE && baked.is_none() {
-        let default = format!("{STACK_SIZE_DECLARATION}{BVH_STACK_SIZE}u;");
-        assert!(source.contains(&default), "traverse_bvh.wgsl declares its stack otherwise");
-        source = source.replace(&default, &format!("{STACK_SIZE_DECLARATION}{bvh_stack}u;"));
-    }
-    let lengths = uniform.lengths();
-    for ((name, element), n) in UNIFORM_CANDIDATES.into_iter().zip(lengths).filter(|(_, n)| *n > 0) {
-        let storage = format!("var<storage, read> {name}: array<{element}>;");
-        assert!(source.contains(&storage), "layout.wgsl declares {name} otherwise");
-        source = source.replace(&storage, &format!("var<uniform> {name}: array<{element}, {n}>;"));
-    }
-    if uniform.triangle_lights > 0 {
-        assert!(
-            source.contains(TRIANGLE_LIGHTS_BINDING) && source.contains(TRIANGLE_LIGHT_READ),
-            "layout.wgsl declares triangle_lights otherwise"
-        );
-        let n = uniform.triangle_lights;
-        source = source
-            .replace(TRIANGLE_LIGHTS_BINDING, &format!("var<uniform> triangle_lights: array<vec4u, {n}>;"))
-            .replace(TRIANGLE_LIGHT_READ, "return triangle_lights[tri >> 2u][tri & 3u];");
-    }
-    if frame_copy {
-        assert!(source.contains(FRAME_BINDING) && source.contains(FRAME_LOAD), "layout.wgsl declares frame otherwise");
-        source = source
-            .replace(FRAME_BINDING, "var<storage, read> frame_in: FrameParams;\nvar<private> frame: FrameParams;")
-            .replace(FRAME_LOAD, "fn load_frame() {\n    frame = frame_in;\n}");
     }
     source
 }
@@ -282,22 +234,6 @@ fn footprint_declarations(triangles: u32, slots: u32) -> String {
     )
 }
 
-/// traverse_bvh.wgsl's read of the emitters' grid where the kernel has none.
-const EMITTER_GRID_READ: &str = "fn emitter_grid_word(i: u32) -> u32 { return 0u; }";
-
-/// A BVH kernel's source with the emitters' grid bound and read (`KernelKey::emitter_grid`).
-pub fn with_emitter_grid(source: String) -> String {
-    assert!(source.contains(EMITTER_GRID_READ), "traverse_bvh.wgsl reads the emitters' grid otherwise");
-    source.replace(
-        EMITTER_GRID_READ,
-        &format!(
-            "@group(0) @binding({}) var<storage, read> emitter_grid: array<u32>;\n\
-             fn emitter_grid_word(i: u32) -> u32 {{ return emitter_grid[i]; }}",
-            crate::gpu::bindings::EMITTER_GRID
-        ),
-    )
-}
-
 /// Parses and validates WGSL with naga, returning a readable error that names the file and line.
 pub fn validate_wgsl(source: &str) -> Result<naga::Module, String> {
     let module = naga::front::wgsl::parse_str(source).map_err(|e| e.emit_to_string(source))?;
@@ -310,6 +246,8 @@ pub fn validate_wgsl(source: &str) -> Result<naga::Module, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::features::UniformArrays;
+    use crate::gpu::bvh_nodes::BVH_STACK_SIZE;
 
     #[test]
     fn a_shader_folder_replaces_the_files_it_has() {
@@ -336,7 +274,7 @@ mod tests {
             split_declared_constants("override STRAIGHT_LINE_SAMPLE_X: bool;", &[("STRAIGHT_LINE_SAMPLE", 1.0)]);
         assert!(kept.is_empty());
         // The built-in shaders declare every constant a kernel is given.
-        let source = render_kernel_source(true, UniformArrays::default(), false, None, 64, false, 0);
+        let source = render_kernel_source(true, &DeclaredBindings::plain(), None, false, 0);
         let (_, left_out) = split_declared_constants(&source, &crate::features::KernelKey::generic().constants());
         assert!(left_out.is_empty(), "{left_out:?}");
     }
@@ -371,7 +309,8 @@ mod tests {
             (false, small, true, None),
             (false, small, true, Some(&baked)),
         ] {
-            let source = render_kernel_source(textures, uniform, frame_copy, baked, BVH_STACK_SIZE, false, 0);
+            let declared = DeclaredBindings { uniform, frame_copy, ..DeclaredBindings::plain() };
+            let source = render_kernel_source(textures, &declared, baked, false, 0);
             if frame_copy {
                 assert!(source.contains("var<private> frame: FrameParams;") && source.contains("frame = frame_in;"));
                 // Every entry point fills the copy before anything reads it.
@@ -400,16 +339,17 @@ mod tests {
 
     #[test]
     fn test_kernels_validate_with_naga() {
-        let source = test_kernel_source(None, BVH_STACK_SIZE);
+        let source = test_kernel_source(None, &DeclaredBindings::plain());
         validate_wgsl(&source).unwrap_or_else(|e| panic!("WGSL invalid:\n{e}"));
     }
 
     #[test]
     fn a_deeper_trees_kernel_gets_a_larger_stack() {
-        let declares = |n: u32| format!("{STACK_SIZE_DECLARATION}{n}u;");
-        let default = render_kernel_source(false, UniformArrays::default(), false, None, BVH_STACK_SIZE, false, 0);
-        assert!(default.contains(&declares(BVH_STACK_SIZE)), "traverse_bvh.wgsl's stack is not BVH_STACK_SIZE");
-        let deeper = render_kernel_source(false, UniformArrays::default(), false, None, 160, false, 0);
+        let declares = |n: u32| format!("const BVH_STACK_SIZE: u32 = {n}u;");
+        let default = render_kernel_source(false, &DeclaredBindings::plain(), None, false, 0);
+        assert!(default.contains(&declares(BVH_STACK_SIZE)), "the stack is not BVH_STACK_SIZE");
+        let deeper = DeclaredBindings { bvh_stack: 160, ..DeclaredBindings::plain() };
+        let deeper = render_kernel_source(false, &deeper, None, false, 0);
         assert!(deeper.contains(&declares(160)) && !deeper.contains(&declares(BVH_STACK_SIZE)));
         validate_wgsl(&deeper).unwrap_or_else(|e| panic!("WGSL invalid:\n{e}"));
     }

@@ -43,6 +43,100 @@ pub const STORAGE_BUFFERS_NEEDED: u32 = 1 + SCENE_COUNT + 1 + OUTPUT_COUNT + TEX
 /// bindings and the grid besides.
 pub const STORAGE_BUFFERS_WITH_EMITTER_GRID: u32 = STORAGE_BUFFERS_NEEDED + 3 + 1;
 
+/// The scene arrays of bindings 1..=7 as the kernels name them: variable and element type.
+pub const SCENE_ARRAYS: [(&str, &str); SCENE_COUNT as usize] = [
+    ("bvh_nodes", "BvhNode"),
+    ("vertices", "Vertex"),
+    ("triangles", "IndexedTriangle"),
+    ("materials", "Material"),
+    ("lights", "Light"),
+    ("emitter_tris", "EmitterTriangle"),
+    ("light_picks", "LightPick"),
+];
+
+/// The bindings whose WGSL declaration a kernel's plan decides, written by `wgsl_declarations`
+/// (the others are declared in the shader files themselves).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct DeclaredBindings {
+    /// Which scene arrays are uniform arrays, and of what length.
+    pub uniform: UniformArrays,
+    /// Each entry point copies the frame's parameters into a private variable (`load_frame`).
+    pub frame_copy: bool,
+    /// The emitters' grid is bound and read (`emitter_grid_word`).
+    pub emitter_grid: bool,
+    /// Entries of the BVH traversal's stack (`BVH_STACK_SIZE`, traverse_bvh.wgsl).
+    pub bvh_stack: u32,
+}
+
+impl DeclaredBindings {
+    /// Every array in storage, no copy of the frame, no emitters' grid, the default stack: the
+    /// generic kernel's declarations.
+    pub fn plain() -> DeclaredBindings {
+        DeclaredBindings {
+            uniform: UniformArrays::default(),
+            frame_copy: false,
+            emitter_grid: false,
+            bvh_stack: crate::gpu::bvh_nodes::BVH_STACK_SIZE,
+        }
+    }
+}
+
+/// The WGSL declarations of the bindings a plan decides, from the same table as `layout_entries`:
+/// - `frame` (binding 0) is a read-only storage buffer, not a uniform: lavapipe (Mesa 22.3) folds
+///   uniform values into the shader and compiles a new variant whenever they change, as row_start
+///   and sample_start do on every dispatch (~12 ms and 0.7-7.6 MiB never freed per dispatch).
+///   Every entry point calls `load_frame` first; with `frame_copy` the binding is `frame_in` and
+///   `load_frame` copies it into a private `frame` once per invocation, since Mesa 22.3 loads a
+///   storage word lane by lane at every read (Cornell box 0.75x; docs/performance.md, "The frame's
+///   parameters copied once per invocation").
+/// - the scene arrays (1..=7) are storage, or uniform arrays where they fit (lavapipe gathers
+///   those; "Small BVHs in a uniform buffer"), and `triangle_lights` (23), read by
+///   `triangle_light`, packs four triangles to a vec4u where uniform ("Triangle lights in a
+///   uniform array");
+/// - the emitters' grid (25) is read by `emitter_grid_word`, which returns 0 in kernels without
+///   one (EMITTER_LIST is then false and it is never read);
+/// - `BVH_STACK_SIZE` sizes the traversal's stack.
+pub fn wgsl_declarations(d: &DeclaredBindings) -> String {
+    let mut out = String::new();
+    let mut line = |text: String| {
+        out.push_str(&text);
+        out.push('\n');
+    };
+    if d.frame_copy {
+        line(format!("@group(0) @binding({FRAME}) var<storage, read> frame_in: FrameParams;"));
+        line("var<private> frame: FrameParams;".into());
+        line("fn load_frame() {\n    frame = frame_in;\n}".into());
+    } else {
+        line(format!("@group(0) @binding({FRAME}) var<storage, read> frame: FrameParams;"));
+        line("fn load_frame() {}".into());
+    }
+    for (k, ((name, element), n)) in SCENE_ARRAYS.iter().zip(d.uniform.lengths()).enumerate() {
+        let binding = SCENE_FIRST + k as u32;
+        line(match n {
+            0 => format!("@group(0) @binding({binding}) var<storage, read> {name}: array<{element}>;"),
+            n => format!("@group(0) @binding({binding}) var<uniform> {name}: array<{element}, {n}>;"),
+        });
+    }
+    match d.uniform.triangle_lights {
+        0 => {
+            line(format!("@group(0) @binding({TRIANGLE_LIGHTS}) var<storage, read> triangle_lights: array<u32>;"));
+            line("fn triangle_light(tri: u32) -> u32 {\n    return triangle_lights[tri];\n}".into());
+        }
+        n => {
+            line(format!("@group(0) @binding({TRIANGLE_LIGHTS}) var<uniform> triangle_lights: array<vec4u, {n}>;"));
+            line("fn triangle_light(tri: u32) -> u32 {\n    return triangle_lights[tri >> 2u][tri & 3u];\n}".into());
+        }
+    }
+    if d.emitter_grid {
+        line(format!("@group(0) @binding({EMITTER_GRID}) var<storage, read> emitter_grid: array<u32>;"));
+        line("fn emitter_grid_word(i: u32) -> u32 {\n    return emitter_grid[i];\n}".into());
+    } else {
+        line("fn emitter_grid_word(i: u32) -> u32 {\n    return 0u;\n}".into());
+    }
+    line(format!("const BVH_STACK_SIZE: u32 = {}u;", d.bvh_stack));
+    out
+}
+
 fn entry(binding: u32, ty: wgpu::BufferBindingType) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,

@@ -1,7 +1,7 @@
 //! Runs `shaders/test_kernels.wgsl`: the renderer's own WGSL sampling routines on inputs a test
 //! chooses, so that statistical tests check the code that renders rather than a copy of it.
 
-use super::bindings;
+use super::bindings::{self, DeclaredBindings};
 use super::bvh_nodes::BVH_STACK_SIZE;
 use super::layout::{FrameParams, TestParams};
 use crate::error::{Error, Result};
@@ -55,11 +55,14 @@ impl<'a> TestKernel<'a> {
     /// included where the scene has one; an error for a scene that traverses a BVH.
     pub fn for_baked_scene(renderer: &'a Renderer, scene: &GpuScene) -> Result<Self> {
         let baked = scene.baked.as_deref().ok_or_else(|| Error::Gpu("the scene's triangles are not baked".into()))?;
-        Self::from_source(renderer, shaders::test_kernel_source(Some(baked), BVH_STACK_SIZE))
+        Self::from_source(renderer, shaders::test_kernel_source(Some(baked), &DeclaredBindings::plain()))
     }
 
     fn with_stack(renderer: &'a Renderer, bvh_stack: u32) -> Result<Self> {
-        Self::from_source(renderer, shaders::test_kernel_source(None, bvh_stack))
+        Self::from_source(
+            renderer,
+            shaders::test_kernel_source(None, &DeclaredBindings { bvh_stack, ..DeclaredBindings::plain() }),
+        )
     }
 
     fn from_source(renderer: &'a Renderer, source: String) -> Result<Self> {
