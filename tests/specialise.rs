@@ -6,8 +6,8 @@ mod common;
 use common::*;
 use glam::{Mat4, Vec3};
 use std::time::Duration;
-use veach::features::KernelKey;
 use veach::gpu::baked_triangles::BAKED_TRIANGLES_MAX;
+use veach::kernel_plan::KernelPlan;
 use veach::{Execution, LightSampling, LightSelection, RenderSettings, Strategy};
 use veach_scenes::gltf_writer::{GltfBuilder, MaterialDesc, MeshData, Punctual};
 
@@ -48,7 +48,7 @@ fn scenes() -> [(&'static str, veach::Scene); 4] {
 #[test]
 fn specialised_kernels_render_the_generic_kernels_image() {
     let cpu = renderer().gpu.adapter_info.device_type == wgpu::DeviceType::Cpu;
-    // Kernels that take their camera samples in straight-line code (KernelKey::straight_line_sample),
+    // Kernels that take their camera samples in straight-line code (KernelPlan::straight_line_sample),
     // compared here with the generic kernel's loop: some must be, where the driver gets them.
     let mut straight_line = 0;
     for (name, scene) in scenes() {
@@ -80,24 +80,29 @@ fn specialised_kernels_render_the_generic_kernels_image() {
                 };
                 let special = render(&gpu_scene, &settings, &camera);
                 let generic = render(&gpu_scene, &RenderSettings { specialise: false, ..settings.clone() }, &camera);
-                assert_ne!(special.kernel, KernelKey::generic());
-                straight_line += special.kernel.straight_line_sample as usize;
+                assert_ne!(special.kernel, KernelPlan::generic());
+                straight_line += special.kernel.driver.straight_line_sample as usize;
                 // The workgroup is the driver's (GpuContext::render_workgroup), not a specialisation.
                 let workgroup = renderer().gpu.render_workgroup(false);
-                assert_eq!(generic.kernel, KernelKey { workgroup, ..KernelKey::generic() });
+                let driver = veach::kernel_plan::DriverTuning { workgroup, ..veach::kernel_plan::DriverTuning::none() };
+                assert_eq!(generic.kernel, KernelPlan { driver, ..KernelPlan::generic() });
                 if strategy == Strategy::Mis {
                     let k = &special.kernel;
-                    assert_eq!(k.at_most_one_light_request && k.at_most_one_direction_sample, samples == 1, "{name}");
+                    assert_eq!(
+                        k.samples.at_most_one_light_request && k.samples.at_most_one_direction_sample,
+                        samples == 1,
+                        "{name}"
+                    );
                 }
-                let uniform = special.kernel.uniform;
+                let uniform = special.kernel.driver.uniform;
                 let all_uniform = uniform.bvh_nodes > 0 && uniform.vertices > 0 && uniform.triangles > 0;
                 assert_eq!(all_uniform, cpu, "{name}: scene memory {uniform:?}");
-                let baked = special.kernel.baked.as_ref().map(|b| b.len());
+                let baked = special.kernel.driver.baked.as_ref().map(|b| b.len());
                 let small = scene.triangles.len() <= BAKED_TRIANGLES_MAX;
                 assert_eq!(baked, (cpu && small).then_some(scene.triangles.len()), "{name}: baked triangles");
-                assert!(generic.kernel.baked.is_none());
+                assert!(generic.kernel.driver.baked.is_none());
                 let what = format!("{name} {strategy:?} {light_selection:?} {light_sampling:?} aovs {write_aovs}");
-                if special.kernel.deferred_direction_rays {
+                if special.kernel.driver.deferred_direction_rays {
                     // The same samples, their direction rays traced after the run's camera
                     // samples (take_samples_deferred): the sums add them in another order.
                     let counts = &generic.sum;
@@ -119,8 +124,8 @@ fn specialised_kernels_render_the_generic_kernels_image() {
             }
         }
     }
-    let masked = veach::features::AutoExecution::for_adapter(&renderer().gpu.adapter_info)
-        == veach::features::AutoExecution::WavefrontWhereMasked;
+    let masked = veach::kernel_plan::AutoExecution::for_adapter(&renderer().gpu.adapter_info)
+        == veach::kernel_plan::AutoExecution::WavefrontWhereMasked;
     assert_eq!(straight_line > 0, masked, "{straight_line} straight-line kernels compared");
 }
 
@@ -141,7 +146,7 @@ fn glossy_light_grid(file: &str) -> veach::Scene {
 }
 
 /// Kernels whose direction rays wait for a later camera sample's pass (waiting_rays.wgsl,
-/// estimate_radiance_waiting; KernelKey::waiting_direction_rays) take the same samples as the
+/// estimate_radiance_waiting; KernelPlan::waiting_direction_rays) take the same samples as the
 /// generic kernel's loop, with the same values, and only add them up in another order: the same
 /// sample counts, rays and non-finite counts, and sums equal up to reordered sums' rounding. On
 /// `veach scale`'s grid of 64 lights (more than lights.wgsl bounds one by one, so BRDF rays are
@@ -182,10 +187,10 @@ fn kernels_whose_direction_rays_wait_render_the_loops_image() {
             let generic = render(&gpu_scene, &RenderSettings { specialise: false, ..settings.clone() }, &camera);
             // Where the scene's emitters' grid is taken (Mesa 25's lavapipe), no ray waits: the
             // next test compares those kernels.
-            let expected = waits && !special.kernel.emitter_grid;
-            assert_eq!(special.kernel.waiting_direction_rays, expected, "{name}: {:?}", special.kernel);
-            waited += usize::from(special.kernel.waiting_direction_rays);
-            gridded += usize::from(special.kernel.emitter_grid);
+            let expected = waits && !special.kernel.driver.emitter_grid;
+            assert_eq!(special.kernel.driver.waiting_direction_rays, expected, "{name}: {:?}", special.kernel);
+            waited += usize::from(special.kernel.driver.waiting_direction_rays);
+            gridded += usize::from(special.kernel.driver.emitter_grid);
             let what = format!("{name} {light_samples} + 1 {light_selection:?} {heuristic:?} {dispatch_target:?}");
             let counts = &generic.sum;
             assert_same_samples_reordered("waiting", &what, &special.sum, &generic.sum, counts, settings.width);
@@ -264,7 +269,11 @@ fn kernels_with_the_emitters_grid_render_the_generic_kernels_image() {
             let gridded = render(&gpu_scene, &settings, &camera);
             let generic = render(&gpu_scene, &RenderSettings { specialise: false, ..settings.clone() }, &camera);
             let what = format!("{name} {strategy:?} {light_samples} + {brdf_samples} {execution:?}");
-            assert!(gridded.kernel.emitter_grid && !generic.kernel.emitter_grid, "{what}: {:?}", gridded.kernel);
+            assert!(
+                gridded.kernel.driver.emitter_grid && !generic.kernel.driver.emitter_grid,
+                "{what}: {:?}",
+                gridded.kernel
+            );
             assert_same_image("emitter-grid", &what, &gridded.sum, &generic.sum, settings.width);
             assert_same_rays(&what, gridded.rays, generic.rays);
             compared += 1;
@@ -284,8 +293,8 @@ fn kernels_with_the_emitters_grid_render_the_generic_kernels_image() {
 /// gets these kernels (Mesa 22.3's lavapipe) the test checks that they ran.
 #[test]
 fn camera_footprint_kernels_render_the_loops_image() {
-    let masked = veach::features::AutoExecution::for_adapter(&renderer().gpu.adapter_info)
-        == veach::features::AutoExecution::WavefrontWhereMasked;
+    let masked = veach::kernel_plan::AutoExecution::for_adapter(&renderer().gpu.adapter_info)
+        == veach::kernel_plan::AutoExecution::WavefrontWhereMasked;
     for name in ["cornell-box"] {
         let scene = shipped_scene(name);
         let camera = scene.camera(None).unwrap();
@@ -310,8 +319,8 @@ fn camera_footprint_kernels_render_the_loops_image() {
             let special = render(&gpu_scene, &settings, &camera);
             let generic = render(&gpu_scene, &RenderSettings { specialise: false, ..settings.clone() }, &camera);
             let what = format!("{name} {strategy:?} {light_samples} + {brdf_samples} {dispatch_target:?}");
-            assert_eq!(special.kernel.footprint_slots > 0, masked, "{what}: {:?}", special.kernel);
-            assert_eq!(special.kernel.deferred_direction_rays, masked && brdf_samples > 0, "{what}");
+            assert_eq!(special.kernel.driver.footprint_slots > 0, masked, "{what}: {:?}", special.kernel);
+            assert_eq!(special.kernel.driver.deferred_direction_rays, masked && brdf_samples > 0, "{what}");
             let counts = &generic.sum;
             let w = settings.width;
             assert_same_samples_reordered("footprints", &what, &special.sum, &generic.sum, counts, w);
@@ -336,7 +345,11 @@ fn camera_footprint_kernels_render_the_loops_image() {
         };
         let special = render(&gpu_scene, &settings, &camera);
         let generic = render(&gpu_scene, &RenderSettings { specialise: false, ..settings.clone() }, &camera);
-        assert_eq!(special.kernel.deferred_direction_rays, masked, "{name} control variate: {:?}", special.kernel);
+        assert_eq!(
+            special.kernel.driver.deferred_direction_rays, masked,
+            "{name} control variate: {:?}",
+            special.kernel
+        );
         let counts = &generic.sum;
         let w = settings.width;
         let what = format!("{name} control variate: squares");
@@ -462,7 +475,7 @@ fn triangles_compiled_into_the_kernel_render_the_bvhs_image() {
         };
         let bvh_scene = renderer().upload_scene_with(&scene, veach::render::BvhMemory::Storage).unwrap();
         let bvh = render(&bvh_scene, &settings, &camera);
-        assert!(bvh.kernel.baked.is_none(), "{name}");
+        assert!(bvh.kernel.driver.baked.is_none(), "{name}");
         // As the driver picks (Mesa 22.3: no boxes), then with compact groups behind boxes.
         let boxed_scene = renderer().upload_scene_with(&scene, veach::render::BvhMemory::AutoWithBoxes).unwrap();
         let boxed_wavefront = RenderSettings { execution: Execution::Wavefront, ..settings.clone() };
@@ -472,11 +485,11 @@ fn triangles_compiled_into_the_kernel_render_the_bvhs_image() {
             ("baked-boxed-wavefront", &boxed_scene, &boxed_wavefront),
         ] {
             let baked = render(gpu_scene, settings, &camera);
-            assert_eq!(baked.kernel.baked.is_some(), cpu, "{name}");
-            baked_scenes += baked.kernel.baked.is_some() as u32;
-            boxed_scenes += baked.kernel.baked.as_ref().is_some_and(|b| b.boxed_groups() > 0) as u32;
-            listed_scenes += baked.kernel.baked.as_ref().is_some_and(|b| b.emitter_list()) as u32;
-            camera_scenes += baked.kernel.baked.as_ref().is_some_and(|b| b.camera_eye().is_some()) as u32;
+            assert_eq!(baked.kernel.driver.baked.is_some(), cpu, "{name}");
+            baked_scenes += baked.kernel.driver.baked.is_some() as u32;
+            boxed_scenes += baked.kernel.driver.baked.as_ref().is_some_and(|b| b.boxed_groups() > 0) as u32;
+            listed_scenes += baked.kernel.driver.baked.as_ref().is_some_and(|b| b.emitter_list()) as u32;
+            camera_scenes += baked.kernel.driver.baked.as_ref().is_some_and(|b| b.camera_eye().is_some()) as u32;
             if baked.sum != bvh.sum {
                 let dir = output_dir("baked-triangles");
                 for (out, kind) in [(&baked, kind), (&bvh, "bvh")] {
@@ -680,7 +693,7 @@ fn every_kernel_renders_the_same_image_with_the_control_variate() {
             let wavefront = RenderSettings { execution: Execution::Wavefront, ..settings.clone() };
             let generic = RenderSettings { specialise: false, ..settings.clone() };
             let first = render(&bvh_scene, &settings, &camera);
-            assert!(first.kernel.control_variate && !generic.specialise);
+            assert!(first.kernel.techniques.control_variate && !generic.specialise);
             for (kind, gpu_scene, s) in [
                 ("generic", &bvh_scene, &generic),
                 ("bvh-wavefront", &bvh_scene, &wavefront),
@@ -856,7 +869,7 @@ fn several_lights_render_the_generic_image_with_every_selection_and_path() {
                 let special = render(&gpu_scene, &settings, &camera);
                 let generic = render(&gpu_scene, &RenderSettings { specialise: false, ..settings.clone() }, &camera);
                 let what = format!("{execution:?} {strategy:?} {n} + {m} {light_selection:?}");
-                if special.kernel.deferred_direction_rays {
+                if special.kernel.driver.deferred_direction_rays {
                     deferred_selections.push(light_selection);
                 }
                 let w = settings.width;
@@ -875,8 +888,8 @@ fn several_lights_render_the_generic_image_with_every_selection_and_path() {
         }
     }
     // Where the driver takes deferred direction rays (Mesa 22.3), they were compared above.
-    let masked = veach::features::AutoExecution::for_adapter(&renderer().gpu.adapter_info)
-        == veach::features::AutoExecution::WavefrontWhereMasked;
+    let masked = veach::kernel_plan::AutoExecution::for_adapter(&renderer().gpu.adapter_info)
+        == veach::kernel_plan::AutoExecution::WavefrontWhereMasked;
     assert_eq!(!deferred_selections.is_empty(), masked, "deferred kernels with {deferred_selections:?}");
 }
 
@@ -910,8 +923,8 @@ fn the_wavefront_weighs_more_than_65535_samples_as_the_megakernel() {
             assert_same_rays("65,537 BRDF samples", wave.rays, mega.rays);
         }
         [mega, wave] => {
-            let masked = veach::features::AutoExecution::for_adapter(&renderer().gpu.adapter_info)
-                == veach::features::AutoExecution::WavefrontWhereMasked;
+            let masked = veach::kernel_plan::AutoExecution::for_adapter(&renderer().gpu.adapter_info)
+                == veach::kernel_plan::AutoExecution::WavefrontWhereMasked;
             for (name, r) in [("megakernel", mega), ("wavefront", wave)] {
                 let e = r.err().map(|e| e.to_string()).unwrap_or_default();
                 assert!(masked && e.contains("more loop iterations than this driver allows"), "{name}: {e}");

@@ -150,7 +150,7 @@ fn degenerate_emitters_are_kept_or_left_out_as_they_should_be() {
 /// invocation one budget of 65,535 loop iterations (gallivm's loop limiter).
 fn loop_limited() -> bool {
     let info = &renderer().gpu.adapter_info;
-    veach::features::AutoExecution::for_adapter(info) == veach::features::AutoExecution::WavefrontWhereMasked
+    veach::kernel_plan::AutoExecution::for_adapter(info) == veach::kernel_plan::AutoExecution::WavefrontWhereMasked
 }
 
 /// The light-touching-the-floor stress scene on the GPU, with its camera.
@@ -218,8 +218,8 @@ fn samples_cut_short_while_a_direction_ray_waits_are_taken_again() {
     let wave = render(&gpu_scene, &RenderSettings { execution: veach::Execution::Wavefront, ..s.clone() }, &camera);
     // Where the emitters' grid is taken (Mesa 25, which has no loop limit) no ray waits, and the
     // two kernels still take the same samples.
-    let waits = renderer().gpu.auto_execution().waits_direction_rays() && !mega.kernel.emitter_grid;
-    assert_eq!(mega.kernel.waiting_direction_rays, waits);
+    let waits = renderer().gpu.auto_execution().waits_direction_rays() && !mega.kernel.driver.emitter_grid;
+    assert_eq!(mega.kernel.driver.waiting_direction_rays, waits);
     let what = "waiting megakernel and wavefront";
     assert_same_samples_reordered("stress-waiting", what, &mega.sum, &wave.sum, &wave.sum, mega.width);
     assert_eq!(mega.truncated_samples > 0, loop_limited(), "{} samples retaken", mega.truncated_samples);

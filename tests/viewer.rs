@@ -93,7 +93,7 @@ fn toggling_a_strategy_restarts_accumulation_and_changes_the_image() {
     // The control variate's checkbox restarts with it: another estimate of the same image.
     h.get_by_label("unshadowed light as a control variate").click();
     run_to_completion(&mut h);
-    assert!(h.state().session().latest().unwrap().kernel.control_variate, "{}", h.state().status);
+    assert!(h.state().session().latest().unwrap().kernel.techniques.control_variate, "{}", h.state().status);
     let controlled = image(&h);
     let d = mean_abs_difference(&mis, &controlled);
     assert!(d > 1e-4, "the control variate left the image as it was (relative difference {d})");

@@ -326,9 +326,7 @@ pub fn render(args: RenderArgs) -> Result<()> {
             (true, 0) => "specialised".to_string(),
             (true, n) => format!("specialised, {n} triangles compiled in"),
         },
-        if veach::features::KernelKey::for_render(&gpu_scene.features, &settings, renderer.gpu.auto_execution())
-            .wavefront
-        {
+        if veach::kernel_plan::runs_wavefront(&gpu_scene.features, &settings, renderer.gpu.auto_execution()) {
             ", wavefront"
         } else {
             ""

@@ -542,12 +542,11 @@ impl ViewerApp {
         ui.label(format!("features: {}{baked}", self.session.loaded.gpu.features.describe()));
         let shape = match &self.current {
             Some((s, _))
-                if veach::features::KernelKey::for_render(
+                if veach::kernel_plan::runs_wavefront(
                     &self.session.loaded.gpu.features,
                     s,
                     self.session.renderer.gpu.auto_execution(),
-                )
-                .wavefront =>
+                ) =>
             {
                 "wavefront"
             }

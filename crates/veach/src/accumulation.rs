@@ -3,11 +3,11 @@
 //! per frame and reads the image back whenever it wants to show it.
 
 use crate::error::{Error, Result};
-use crate::features::{AutoExecution, KernelKey};
 use crate::gpu::bindings;
 use crate::gpu::context::GpuContext;
 use crate::gpu::layout::{DEFERRED_WORKGROUP, DeferredSample, FrameParams, PixelCounters};
 use crate::gpu::readback::{GpuTimer, read_buffer};
+use crate::kernel_plan::{KernelPlan, PlannedKernel};
 use crate::output::{Contributions, RenderOutput};
 use crate::render::{GpuScene, Kernel, Renderer};
 use crate::scene::Camera;
@@ -38,7 +38,7 @@ pub struct Accumulation {
     gpu: GpuContext,
     settings: RenderSettings,
     kernel: Arc<Kernel>,
-    key: KernelKey,
+    key: KernelPlan,
     kernel_creation: Duration,
     bind_group: wgpu::BindGroup,
     params: FrameParams,
@@ -137,7 +137,7 @@ impl Accumulation {
     /// `tile_row`). Its `settings()` and `read()` are the tile's: `height` is `rows.len()`.
     /// Headless renders without a time limit take runs of several samples per invocation
     /// (`Renderer::render` sets `set_band_samples`), which footprint lists may serve
-    /// (`footprints_apply`); with a time limit a pass over bands takes one.
+    /// (`KernelPlan::for_render`); with a time limit a pass over bands takes one.
     pub fn for_rows(
         renderer: &Renderer,
         scene: &GpuScene,
@@ -201,61 +201,14 @@ impl Accumulation {
         });
 
         let outputs = [&accum, &accum_sq, &counters, &aov_light, &aov_brdf];
-        let mut footprints: Option<(Duration, wgpu::Buffer)> = None;
-        let mut key = KernelKey::for_render(&scene.features, settings, gpu.auto_execution());
-        // Every kernel, generic or not, takes the stack its scene's BVH needs.
-        key.bvh_stack = scene.bvh_stack();
-        key.workgroup = gpu.render_workgroup(key.wavefront);
-        if w.div_ceil(key.workgroup.0) > device.limits().max_compute_workgroups_per_dimension {
+        let adapter = gpu.profile();
+        let PlannedKernel { plan: key, footprints } =
+            KernelPlan::for_render(scene.uploaded(), image, camera, rows.clone(), runs_of_samples, &adapter)?;
+        if w.div_ceil(key.driver.workgroup.0) > device.limits().max_compute_workgroups_per_dimension {
             return Err(Error::Options(format!("width {w} exceeds this adapter's dispatch limit")));
         }
-        if settings.specialise {
-            // The scene's small arrays are also uniform buffers where that pays (`upload_scene`).
-            key.uniform = scene.uniform;
-            key.frame_copy = gpu.is_cpu();
-            key.baked = scene.baked.clone();
-            // A BVH kernel's direction samples search the emitters' grid where the scene has one
-            // (`Renderer::upload_scene`: where the driver branches and the grid pays), and the
-            // device binds that many storage buffers.
-            let storage_buffers = device.limits().max_storage_buffers_per_shader_stage;
-            key.emitter_grid = key.baked.is_none()
-                && scene.emitter_grid.is_some()
-                && storage_buffers >= bindings::STORAGE_BUFFERS_WITH_EMITTER_GRID;
-            // Where direction samples search the emitters' list or grid, no ray of theirs is left
-            // to wait.
-            key.waiting_direction_rays &= !key.emitter_grid && !scene.baked.as_ref().is_some_and(|b| b.emitter_list());
-            // Camera rays by the edge planes through the eye where this camera is at it: in the
-            // wavefront's first kernel, which then has no closest-hit list at all, and in the
-            // megakernel where the driver branches around the list its camera pass leaves out
-            // (Mesa 22.3 would run both; docs/performance.md, "Camera rays by edge planes").
-            let at_eye = scene.baked.as_ref().is_some_and(|b| b.has_camera_eye(camera.position));
-            key.camera_list = at_eye && (key.wavefront || gpu.auto_execution() != AutoExecution::WavefrontWhereMasked);
-            // In the megakernel where the driver runs every branch under a mask (Mesa 22.3),
-            // camera rays test only their pixel's footprint list, and direction rays wait for the
-            // end of the invocation's run, so that its camera samples run no closest-hit list at
-            // all (docs/performance.md, "Camera rays by footprint lists"; on Mesa 25, which
-            // branches, the camera list's loop stays faster: 1.05x the time with them).
-            let masked = gpu.auto_execution() == AutoExecution::WavefrontWhereMasked;
-            let long_list = scene.baked.as_ref().is_some_and(|b| b.len() >= FOOTPRINT_MIN_TRIANGLES);
-            if runs_of_samples && at_eye && !key.wavefront && masked && long_list && footprints_apply(&key, settings) {
-                let cam = camera.to_gpu(image.width, image.height);
-                let film = crate::gpu::camera_footprints::FilmFrame::new(&cam, image.width, image.height);
-                let baked = scene.baked.as_ref().expect("at the eye of a baked scene's camera list");
-                let fits = |words: &Vec<u32>| (words.len() as u64 * 4) <= max_binding;
-                if let Some((lists, words)) = baked.camera_footprints(&film, rows.clone()).filter(|(_, w)| fits(w)) {
-                    key.footprint_slots = lists.slots as u32;
-                    // A held ray is weighed after later camera samples have shaded other points,
-                    // so not where lights are chosen by the BSDF per shading point (its MIS weight
-                    // needs the selection table of its own point; the light tree's needs only the
-                    // point and normal, which the held ray keeps).
-                    key.deferred_direction_rays = key.strategy.is_some_and(|s| s != crate::settings::Strategy::Light)
-                        && !(key.point_selection && settings.light_selection == crate::settings::LightSelection::Bsdf);
-                    key.waiting_direction_rays = false;
-                    key.camera_list = false;
-                    footprints = Some((lists.build_time, storage_words(device, "camera footprints", &words)));
-                }
-            }
-        }
+        let footprints =
+            footprints.map(|(lists, words)| (lists.build_time, storage_words(device, "camera footprints", &words)));
         // The deferred samples of one dispatch: a band of rows, each pixel once, within the
         // binding size and the direction kernel's one-dimensional indirect dispatch.
         let deferred_capacity = pixels
@@ -371,7 +324,7 @@ impl Accumulation {
         }
         let (w, h) = (self.settings.width, self.settings.height);
         let pixels = w as u64 * h as u64;
-        let mut max_rows = self.gpu.device.limits().max_compute_workgroups_per_dimension * self.key.workgroup.1;
+        let mut max_rows = self.gpu.device.limits().max_compute_workgroups_per_dimension * self.key.driver.workgroup.1;
         if let Some(q) = &self.wavefront {
             max_rows = max_rows.min((q.capacity / w as u64) as u32);
         }
@@ -449,8 +402,8 @@ impl Accumulation {
             });
             pass.set_pipeline(&self.kernel.pipeline);
             pass.set_bind_group(0, &self.bind_group, &[]);
-            let groups_y = rows.div_ceil(self.key.workgroup.1).max(1);
-            let groups_x = self.settings.width.div_ceil(self.key.workgroup.0);
+            let groups_y = rows.div_ceil(self.key.driver.workgroup.1).max(1);
+            let groups_x = self.settings.width.div_ceil(self.key.driver.workgroup.0);
             match (&self.kernel.wavefront, &self.wavefront) {
                 (Some((prepare, direction)), Some(q)) => {
                     // One round of the three kernels per camera sample (shaders/wavefront.wgsl).
@@ -564,28 +517,6 @@ impl Accumulation {
             interrupted: !self.is_complete(),
         })
     }
-}
-
-/// Fewer samples per pixel do not pay for the lists' building (1.2 ms for the Cornell box at
-/// 256×256 on 2 cores) and each run's pass of held rays: the Cornell box at 2 spp took 1.35x the
-/// time with them, at 4 spp 1.03x, at 8 spp and up 0.79-0.87x (docs/performance.md).
-const FOOTPRINT_MIN_SPP: u32 = 8;
-
-/// Scenes of fewer baked triangles keep their closest-hit list for camera rays: it costs less
-/// than the lists' slots and the deferred rays' pass save (the textured scene's 8 triangles: 1.06x
-/// the time with them, the Cornell box's 36: 0.80x; docs/performance.md).
-const FOOTPRINT_MIN_TRIANGLES: usize = 16;
-
-/// Whether a render's kernel may take camera rays by footprint lists and defer its direction
-/// rays (take_samples_deferred): a strategy whose plan is the same at every point, at most one
-/// direction sample, no cone samples (their passes) and no contribution images (the deferred
-/// samples' sums leave them out).
-fn footprints_apply(key: &KernelKey, settings: &RenderSettings) -> bool {
-    settings.spp >= FOOTPRINT_MIN_SPP
-        && key.strategy.is_some_and(|s| s != crate::settings::Strategy::MisLobes)
-        && key.at_most_one_direction_sample
-        && !key.cone
-        && !settings.write_aovs
 }
 
 fn storage_words(device: &wgpu::Device, label: &str, words: &[u32]) -> wgpu::Buffer {

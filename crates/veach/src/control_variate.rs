@@ -10,7 +10,8 @@
 //! first, to name the scene.
 
 use crate::error::{Error, Result};
-use crate::features::{SceneFeatures, effective_strategy};
+use crate::features::SceneFeatures;
+use crate::kernel_plan::effective_strategy;
 use crate::settings::{LightSampling, RenderSettings, Strategy};
 
 /// Emitter triangles the kernel integrates one by one at each shading point.

@@ -13,6 +13,7 @@ pub mod features;
 pub mod gpu;
 pub mod headless;
 pub mod image_io;
+pub mod kernel_plan;
 pub mod light_tree;
 pub mod output;
 pub mod render;

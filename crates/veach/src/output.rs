@@ -1,7 +1,7 @@
 //! What a render gives back: the per-pixel sums and the image they mean, the MIS contribution
 //! images, and what the render cost (`RenderOutput`); the progress a long render reports.
 
-use crate::features::KernelKey;
+use crate::kernel_plan::KernelPlan;
 use std::time::Duration;
 
 /// What the progress callback sees after each dispatch.
@@ -52,7 +52,7 @@ pub struct RenderOutput {
     pub gpu_time: Option<Duration>,
     /// The kernel that rendered, and the time spent creating it for this render (zero when it
     /// was cached).
-    pub kernel: KernelKey,
+    pub kernel: KernelPlan,
     pub kernel_creation: Duration,
     pub dispatches: u32,
     /// Stopped by the callback (Ctrl-C) before the budget was spent.

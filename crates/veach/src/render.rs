@@ -3,7 +3,7 @@
 
 use crate::bvh::build_bvh;
 use crate::error::{Error, Result};
-use crate::features::{KernelKey, SceneFeatures, UniformArrays, runs_branches_masked};
+use crate::features::{SceneFeatures, UniformArrays};
 use crate::gpu::baked_triangles::BakedTriangles;
 use crate::gpu::bindings;
 use crate::gpu::bvh_nodes::{build_bvh_fitting, gpu_node_count};
@@ -11,6 +11,7 @@ use crate::gpu::context::GpuContext;
 use crate::gpu::emitter_grid::EmitterGrid;
 use crate::gpu::layout::{self, FrameParams};
 use crate::gpu::scene_buffers::{SceneArrays, build_scene_arrays};
+use crate::kernel_plan::{KernelPlan, runs_branches_masked};
 
 use crate::scene::{Camera, LightKind, Scene};
 use crate::settings::{Heuristic, LightSampling, LightSelection, RenderSettings, Sampler, Strategy};
@@ -52,7 +53,7 @@ pub struct GpuScene {
     /// Triangles of area lights (`emitter_tris` before any padding).
     pub(crate) emitter_triangles: u32,
     /// The emitters' grid, for BVH kernels where the driver branches around code no lane runs and
-    /// the grid pays (`gpu::emitter_grid`; `KernelKey::emitter_grid`).
+    /// the grid pays (`gpu::emitter_grid`; `KernelPlan::emitter_grid`).
     pub(crate) emitter_grid: Option<wgpu::Buffer>,
     /// The light tree's nodes and directional leaves (`crate::light_tree`; one zeroed node where
     /// there is no light), and their counts.
@@ -91,7 +92,18 @@ impl GpuScene {
         self.bvh_stack_bound
     }
 
-    /// The traversal stack its kernels need (`KernelKey::bvh_stack`).
+    /// What a kernel plan needs to know of it (`KernelPlan::for_render`).
+    pub fn uploaded(&self) -> crate::kernel_plan::UploadedScene<'_> {
+        crate::kernel_plan::UploadedScene {
+            features: &self.features,
+            bvh_stack: self.bvh_stack(),
+            uniform: self.uniform,
+            baked: self.baked.as_ref(),
+            emitter_grid: self.emitter_grid.is_some(),
+        }
+    }
+
+    /// The traversal stack its kernels need (`KernelPlan::bvh_stack`).
     pub fn bvh_stack(&self) -> u32 {
         crate::gpu::bvh_nodes::stack_size_for(self.bvh_stack_bound)
     }
@@ -102,7 +114,7 @@ impl GpuScene {
 /// `RenderOutput::kernel_creation`, outside the render time.
 pub(crate) struct Kernel {
     pub(crate) textures: bool,
-    /// It reads the emitters' grid (`KernelKey::emitter_grid`).
+    /// It reads the emitters' grid (`KernelPlan::emitter_grid`).
     pub(crate) emitter_grid: bool,
     /// `render`, or the wavefront's first kernel (`render_light_pass`)...
     pub(crate) pipeline: wgpu::ComputePipeline,
@@ -112,11 +124,11 @@ pub(crate) struct Kernel {
 }
 
 /// The kernels on a device: the generic one, compiled up front, and the ones specialised to a
-/// scene's features and a strategy (`features::KernelKey`), compiled at first use and cached,
+/// scene's features and a strategy (`kernel_plan::KernelPlan`), compiled at first use and cached,
 /// so that switching back to a strategy used before compiles nothing.
 pub struct Renderer {
     pub gpu: GpuContext,
-    kernels: Mutex<HashMap<KernelKey, Arc<Kernel>>>,
+    kernels: Mutex<HashMap<KernelPlan, Arc<Kernel>>>,
 }
 
 fn storage_buffer<T: bytemuck::Pod + Default>(device: &wgpu::Device, label: &str, data: &[T]) -> wgpu::Buffer {
@@ -207,33 +219,27 @@ impl Renderer {
 
     /// The kernel for `key`, compiled now if it is not cached (and then also dispatched once,
     /// empty, since drivers such as lavapipe compile at the first dispatch).
-    pub(crate) fn kernel(&self, key: &KernelKey) -> Result<(Arc<Kernel>, bool)> {
+    pub(crate) fn kernel(&self, key: &KernelPlan) -> Result<(Arc<Kernel>, bool)> {
         if let Some(k) = self.kernels.lock().expect("kernel cache").get(key) {
             return Ok((k.clone(), false));
         }
         let entry_points: &[&str] =
             if key.wavefront { &shaders::WAVEFRONT_ENTRY_POINTS } else { &[shaders::RENDER_ENTRY_POINT] };
         let extra = bindings::ExtraBindings {
-            uniform: key.uniform,
-            textures: key.textures,
+            uniform: key.driver.uniform,
+            textures: key.textures.module,
             deferred: key.wavefront,
             test_io: false,
-            footprints: key.footprint_slots > 0,
-            emitter_grid: key.emitter_grid,
-        };
-        let declared = bindings::DeclaredBindings {
-            uniform: key.uniform,
-            frame_copy: key.frame_copy,
-            emitter_grid: key.emitter_grid,
-            bvh_stack: key.bvh_stack,
+            footprints: key.driver.footprint_slots > 0,
+            emitter_grid: key.driver.emitter_grid,
         };
         let source = shaders::render_kernel_source(
-            key.textures,
-            &declared,
-            key.baked.as_deref(),
+            key.textures.module,
+            &key.declared_bindings(),
+            key.driver.baked.as_deref(),
             // Without subgroups each invocation decides alone (lanes_none.wgsl): the same image.
-            key.waiting_direction_rays && self.gpu.device.features().contains(wgpu::Features::SUBGROUP),
-            key.footprint_slots,
+            key.driver.waiting_direction_rays && self.gpu.device.features().contains(wgpu::Features::SUBGROUP),
+            key.driver.footprint_slots,
         );
         let constants = shaders::pipeline_constants(&source, &key.constants());
         let (pipelines, layout) = bindings::create_pipelines(
@@ -248,8 +254,13 @@ impl Renderer {
         let mut pipelines = pipelines.into_iter();
         let pipeline = pipelines.next().expect("one pipeline per entry point");
         let wavefront = pipelines.next().zip(pipelines.next());
-        let kernel =
-            Arc::new(Kernel { textures: key.textures, emitter_grid: key.emitter_grid, pipeline, wavefront, layout });
+        let kernel = Arc::new(Kernel {
+            textures: key.textures.module,
+            emitter_grid: key.driver.emitter_grid,
+            pipeline,
+            wavefront,
+            layout,
+        });
         self.kernels.lock().expect("kernel cache").insert(key.clone(), kernel.clone());
         Ok((kernel, true))
     }
@@ -320,7 +331,7 @@ impl Renderer {
             baked.mark_blockers(&arrays.triangle_lights, (!directional).then_some(&delta[..]));
             baked.set_emitter_list(branches);
             // For camera rays from the scene's first camera (a render from another, or the
-            // viewer's once it moves, takes the closest-hit list: `KernelKey::camera_list`).
+            // viewer's once it moves, takes the closest-hit list: `KernelPlan::camera_list`).
             baked.set_camera_eye(scene.camera(None).ok().map(|c| c.position));
             Arc::new(baked)
         });
@@ -500,7 +511,7 @@ impl Renderer {
     }
 
     pub(crate) fn frame_params(&self, scene: &GpuScene, s: &RenderSettings, camera: &Camera) -> FrameParams {
-        let (strategy, light_samples, brdf_samples) = crate::features::effective_strategy(&scene.features, s);
+        let (strategy, light_samples, brdf_samples) = crate::kernel_plan::effective_strategy(&scene.features, s);
         FrameParams {
             camera: camera.to_gpu(s.width, s.height),
             width: s.width,

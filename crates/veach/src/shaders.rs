@@ -70,9 +70,9 @@ pub const WAVEFRONT_ENTRY_POINTS: [&str; 3] = ["render_light_pass", "prepare_dir
 
 /// The whole kernel source. Each file is preceded by a marker comment so that a line number in
 /// a WGSL error can be traced back to its file. `declared` says how the frame, the scene arrays,
-/// the emitters' grid and the traversal's stack are declared (`KernelKey`'s uniform arrays,
+/// the emitters' grid and the traversal's stack are declared (`KernelPlan`'s uniform arrays,
 /// frame copy, emitters' grid and stack). With `baked` triangles, rays test those instead of
-/// traversing the BVH (`KernelKey::baked`), and camera rays test footprint lists of
+/// traversing the BVH (`KernelPlan::baked`), and camera rays test footprint lists of
 /// `footprint_slots` triangles (0: none). With `lane_votes` the invocations of a subgroup vote with
 /// subgroup operations (lanes.wgsl), which the device must have (wgpu's `Features::SUBGROUP`).
 pub fn render_kernel_source(
@@ -123,7 +123,7 @@ fn shader_text(name: &str, built_in: &'static str) -> Cow<'static, str> {
     shader_text_in(dir.as_deref().map(Path::new), name, built_in)
 }
 
-/// Override constants by name, as `KernelKey::constants` gives them.
+/// Override constants by name, as `KernelPlan::constants` gives them.
 pub type Constants<'a> = Vec<(&'a str, f64)>;
 
 /// The override constants of `constants` that `source` declares, and those it does not. The
@@ -275,7 +275,7 @@ mod tests {
         assert!(kept.is_empty());
         // The built-in shaders declare every constant a kernel is given.
         let source = render_kernel_source(true, &DeclaredBindings::plain(), None, false, 0);
-        let (_, left_out) = split_declared_constants(&source, &crate::features::KernelKey::generic().constants());
+        let (_, left_out) = split_declared_constants(&source, &crate::kernel_plan::KernelPlan::generic().constants());
         assert!(left_out.is_empty(), "{left_out:?}");
     }
 

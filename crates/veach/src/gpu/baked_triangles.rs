@@ -48,7 +48,7 @@ struct BakedGroup {
 }
 
 /// The corners of a scene's triangles as f32 bit patterns, in the BVH's triangle order (so that
-/// a hit's triangle index means what it means with the BVH). Part of `KernelKey`: each such scene
+/// a hit's triangle index means what it means with the BVH). Part of `KernelPlan`: each such scene
 /// has a kernel of its own.
 #[derive(Clone, PartialEq, Eq, Hash)]
 pub struct BakedTriangles {
@@ -165,7 +165,7 @@ impl BakedTriangles {
     /// Camera rays from `eye` (None: none) test the triangles by their edge planes through it
     /// (`trace_camera` in traverse_baked.wgsl): per triangle three dot products and a division
     /// where the watertight test shears its corners per ray. Kernels use it where the render's
-    /// camera is at `eye` (`KernelKey::camera_list`): the wavefront's first kernel, and the
+    /// camera is at `eye` (`KernelPlan::camera_list`): the wavefront's first kernel, and the
     /// megakernel where the driver branches around code no lane runs (Mesa 22.3 would run the
     /// closest-hit list beside it).
     pub fn set_camera_eye(&mut self, eye: Option<Vec3>) {

@@ -28,10 +28,10 @@ pub const TEST_OUTPUT: u32 = 22;
 /// The scene's `triangle_lights` (read-only storage, or uniform: `UniformArrays::triangle_lights`),
 /// after the others.
 pub const TRIANGLE_LIGHTS: u32 = 23;
-/// Baked megakernels with camera footprint lists (`KernelKey::footprint_slots`): the lists
+/// Baked megakernels with camera footprint lists (`KernelPlan::footprint_slots`): the lists
 /// (read-only storage).
 pub const CAMERA_FOOTPRINTS: u32 = 24;
-/// BVH kernels with the emitters' grid (`KernelKey::emitter_grid`, `gpu::emitter_grid`): the grid
+/// BVH kernels with the emitters' grid (`KernelPlan::emitter_grid`, `gpu::emitter_grid`): the grid
 /// (read-only storage).
 pub const EMITTER_GRID: u32 = 25;
 /// The light tree (`crate::light_tree`; read-only storage), in every kernel: SELECT_TREE is a

@@ -1,5 +1,5 @@
 //! Per-pixel lists of the triangles a camera ray through the pixel can meet first, for baked
-//! kernels whose camera is at the camera list's eye (`KernelKey::footprint_slots`,
+//! kernels whose camera is at the camera list's eye (`KernelPlan::footprint_slots`,
 //! `trace_camera_slots` in shaders/traverse_baked.wgsl). Every camera ray of a pixel passes
 //! through its footprint, so a triangle whose projection misses the footprint, or that lies behind
 //! a surface covering the whole footprint, is never the closest hit of any of them: the rays test

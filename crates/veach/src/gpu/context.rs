@@ -110,7 +110,7 @@ impl GpuContext {
     }
 
     /// Whether the adapter is a CPU (lavapipe): small arrays become uniform buffers and the frame's
-    /// parameters a private copy there (`render.rs`, `KernelKey::frame_copy`).
+    /// parameters a private copy there (`render.rs`, `KernelPlan::frame_copy`).
     pub fn is_cpu(&self) -> bool {
         self.adapter_info.device_type == wgpu::DeviceType::Cpu
     }
@@ -124,16 +124,28 @@ impl GpuContext {
         if let Some(size) = self.workgroup_override {
             return size;
         }
-        match (self.adapter_info.driver == crate::features::NVIDIA_DRIVER, wavefront) {
+        match (self.adapter_info.driver == crate::kernel_plan::NVIDIA_DRIVER, wavefront) {
             (true, false) => (16, 16),
             (true, true) => (32, 8),
             (false, _) => crate::gpu::layout::WORKGROUP_SIZE,
         }
     }
 
+    /// What a kernel plan needs to know of this adapter (`KernelPlan::for_render`).
+    pub fn profile(&self) -> crate::kernel_plan::AdapterProfile {
+        let limits = self.device.limits();
+        crate::kernel_plan::AdapterProfile {
+            auto: self.auto_execution(),
+            cpu: self.is_cpu(),
+            storage_buffers_per_stage: limits.max_storage_buffers_per_shader_stage,
+            max_binding: limits.max_storage_buffer_binding_size,
+            workgroups: [self.render_workgroup(false), self.render_workgroup(true)],
+        }
+    }
+
     /// What `--execution auto` picks on this driver.
-    pub fn auto_execution(&self) -> crate::features::AutoExecution {
-        crate::features::AutoExecution::for_adapter(&self.adapter_info)
+    pub fn auto_execution(&self) -> crate::kernel_plan::AutoExecution {
+        crate::kernel_plan::AutoExecution::for_adapter(&self.adapter_info)
     }
 
     /// The driver and its version, e.g. "llvmpipe, Mesa 25.0.7-2~bpo12+1 (LLVM 15.0.6)": lavapipe's
