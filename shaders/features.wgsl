@@ -36,11 +36,11 @@ override PARALLELOGRAM_LIGHTS: bool = true;
 override TRIANGLE_PICKS: bool = true;
 // Where the driver branches around untaken code, baked kernels (traverse_baked.wgsl, the emitters'
 // list) and BVH kernels whose scene has an emitters' grid that pays (traverse_bvh.wgsl,
-// KernelKey::emitter_grid): a direction sample finds what it meets among the emitters alone
+// DriverTuning::emitter_grid): a direction sample finds what it meets among the emitters alone
 // (trace_emitters), then a shadow ray tests the segment to it (direction_samples.wgsl,
 // direction_sample_to_emitters).
 override EMITTER_LIST: bool = false;
-// Baked kernels for a render from the eye the camera list was built for (KernelKey::camera_list):
+// Baked kernels for a render from the eye the camera list was built for (DriverTuning::camera_list):
 // camera rays test the triangles by their edge planes through that eye (traverse_baked.wgsl,
 // trace_camera). False for BVH kernels.
 override CAMERA_LIST: bool = false;
@@ -49,7 +49,7 @@ override CAMERA_LIST: bool = false;
 override CONTROL_VARIATE: bool = true;
 
 // A camera sample takes at most one light-sample request, or at most one direction sample, where
-// the kernel is specialised to the render's counts (KernelKey::at_most_one_light_request,
+// the kernel is specialised to the render's counts (KernelPlan::at_most_one_light_request,
 // at_most_one_direction_sample): those samples are then taken without a loop. On Mesa 22.3's
 // lavapipe a loop nested in the sample loop cost the Cornell box about a quarter of its render
 // time, and that driver keeps a loop bounded by a constant as a loop (docs/performance.md,
@@ -58,20 +58,14 @@ override AT_MOST_ONE_LIGHT_REQUEST: bool = false;
 override AT_MOST_ONE_DIRECTION_SAMPLE: bool = false;
 // With AT_MOST_ONE_DIRECTION_SAMPLE (and no cone sampling): a camera sample in straight-line code,
 // its direction sample's ray traced at a call site of its own (direct.wgsl,
-// estimate_radiance_straight), not on a second pass of one loop (KernelKey::straight_line_sample).
+// estimate_radiance_straight), not on a second pass of one loop (DriverTuning::straight_line_sample).
 override STRAIGHT_LINE_SAMPLE: bool = false;
-// With AT_MOST_ONE_DIRECTION_SAMPLE (MIS, no cone sampling, no control variate, no contribution
-// images, lights chosen by a table that does not depend on the point): a camera sample's
-// direction ray may wait in its invocation for a later sample's pass, so that the lanes of a SIMD
-// group trace theirs together (waiting_rays.wgsl, estimate_radiance_waiting;
-// KernelKey::waiting_direction_rays).
-override WAITING_DIRECTION_RAYS: bool = false;
 // With FOOTPRINT_SLOTS (traverse_baked.wgsl) and at most one direction sample: direction rays
 // wait in their invocation and are traced together after its camera samples
-// (waiting_rays.wgsl, take_samples_deferred; KernelKey::deferred_direction_rays).
+// (deferred_rays.wgsl, take_samples_deferred; DriverTuning::deferred_direction_rays).
 override DEFERRED_DIRECTION_RAYS: bool = false;
 // Threads per workgroup of the kernels that take a pixel each, in columns and rows
-// (KernelKey::workgroup). Not a specialisation: a size the driver runs fastest.
+// (DriverTuning::workgroup). Not a specialisation: a size the driver runs fastest.
 override RENDER_WORKGROUP_WIDTH: u32 = 8u;
 override RENDER_WORKGROUP_HEIGHT: u32 = 8u;
 

@@ -90,8 +90,8 @@ struct FrameParams {
     tile_row: u32,
     emitter_max: vec3f,
     image_height: u32,
-    // 1: no camera sample's direction ray waits for a later sample's pass (waiting_rays.wgsl,
-    // take_samples_waiting): set where samples cut short are taken again.
+    // 1: no direction ray is held for the end of a run (deferred_rays.wgsl,
+    // take_samples_deferred): set where samples cut short are taken again.
     finish_samples: u32,
     // The sequence index of a pixel's sample 0 (--first-sample): counts and sums stay per
     // render, only the sample streams are offset (megakernel.wgsl, pixel_sample_stream).

@@ -80,8 +80,6 @@ fn render(@builtin(global_invocation_id) gid: vec3u) {
     load_camera_slots(pixel);
     if DEFERRED_DIRECTION_RAYS && k < frame.sample_start + frame.sample_count {
         take_samples_deferred(px, k, &sum, &sum_sq, &count);
-    } else if WAITING_DIRECTION_RAYS && k < frame.sample_start + frame.sample_count {
-        take_samples_waiting(px, k, &sum, &sum_sq, &count);
     } else if k < frame.sample_start + frame.sample_count {
         loop {
             var stream = pixel_sample_stream(pixel, k);

@@ -3,7 +3,7 @@
 // most 64 triangles on CPU adapters use traverse_baked.wgsl instead (BAKED_TRIANGLES_MAX).
 
 // The emitters' grid (crates/veach/src/gpu/emitter_grid.rs), where the kernel has one
-// (KernelKey::emitter_grid; EMITTER_LIST, features.wgsl), read by emitter_grid_word (declared with
+// (DriverTuning::emitter_grid; EMITTER_LIST, features.wgsl), read by emitter_grid_word (declared with
 // the bindings, gpu/bindings.rs).
 fn emitter_grid_vec3f(i: u32) -> vec3f {
     return vec3f(bitcast<f32>(emitter_grid_word(i)), bitcast<f32>(emitter_grid_word(i + 1u)), bitcast<f32>(emitter_grid_word(i + 2u)));

@@ -145,81 +145,6 @@ fn glossy_light_grid(file: &str) -> veach::Scene {
     load(&glossy, file)
 }
 
-/// Kernels whose direction rays wait for a later camera sample's pass (waiting_rays.wgsl,
-/// estimate_radiance_waiting; KernelPlan::waiting_direction_rays) take the same samples as the
-/// generic kernel's loop, with the same values, and only add them up in another order: the same
-/// sample counts, rays and non-finite counts, and sums equal up to reordered sums' rounding. On
-/// `veach scale`'s grid of 64 lights (more than lights.wgsl bounds one by one, so BRDF rays are
-/// traced wherever they cross the grid's box) and the same grid over a glossy floor, MIS with one
-/// BRDF sample and one or three light samples, lights chosen by power, uniformly and each, both
-/// heuristics, in one dispatch and in bands of rows (a run of samples per invocation, or one).
-/// Where the driver gets these kernels (lavapipe), the test checks that it rendered with them.
-#[test]
-fn kernels_whose_direction_rays_wait_render_the_loops_image() {
-    let waits = renderer().gpu.auto_execution().waits_direction_rays();
-    let mut grids = Vec::new();
-    let matte = veach_scenes::scale_scenes::light_scene(64, 64);
-    grids.push(("grid", load(&matte, "waiting-grid")));
-    grids.push(("glossy grid", glossy_light_grid("waiting-glossy-grid")));
-    let (mut waited, mut gridded) = (0, 0);
-    for (name, scene) in grids {
-        let camera = scene.camera(None).unwrap();
-        let gpu_scene = upload(&scene);
-        for (light_samples, light_selection, heuristic, dispatch_target) in [
-            (1, LightSelection::Power, veach::Heuristic::Power, Duration::from_secs(10)),
-            (1, LightSelection::Uniform, veach::Heuristic::Balance, Duration::from_nanos(1)),
-            (3, LightSelection::Each, veach::Heuristic::Power, Duration::from_secs(10)),
-        ] {
-            let settings = RenderSettings {
-                width: 24,
-                height: 16,
-                spp: 24,
-                strategy: Strategy::Mis,
-                light_samples,
-                brdf_samples: 1,
-                light_selection,
-                heuristic,
-                dispatch_target,
-                seed: 4,
-                ..Default::default()
-            };
-            let special = render(&gpu_scene, &settings, &camera);
-            let generic = render(&gpu_scene, &RenderSettings { specialise: false, ..settings.clone() }, &camera);
-            // Where the scene's emitters' grid is taken (Mesa 25's lavapipe), no ray waits: the
-            // next test compares those kernels.
-            let expected = waits && !special.kernel.driver.emitter_grid;
-            assert_eq!(special.kernel.driver.waiting_direction_rays, expected, "{name}: {:?}", special.kernel);
-            waited += usize::from(special.kernel.driver.waiting_direction_rays);
-            gridded += usize::from(special.kernel.driver.emitter_grid);
-            let what = format!("{name} {light_samples} + 1 {light_selection:?} {heuristic:?} {dispatch_target:?}");
-            let counts = &generic.sum;
-            assert_same_samples_reordered("waiting", &what, &special.sum, &generic.sum, counts, settings.width);
-            let squares = format!("{what}: squares");
-            assert_same_samples_reordered(
-                "waiting",
-                &squares,
-                &special.sum_sq,
-                &generic.sum_sq,
-                counts,
-                settings.width,
-            );
-            assert_same_rays(&what, special.rays, generic.rays);
-            assert_eq!(special.nonfinite_samples, generic.nonfinite_samples, "{what}");
-            // BRDF rays to wait: the same render without BRDF samples traces at least a tenth of a
-            // ray per camera sample fewer (about a third on this grid).
-            let no_brdf = render(&gpu_scene, &RenderSettings { brdf_samples: 0, ..settings.clone() }, &camera);
-            let camera_samples = (settings.width * settings.height * settings.spp) as u64;
-            assert!(
-                special.rays >= no_brdf.rays + camera_samples / 10,
-                "{what}: {} rays, {} without BRDF samples",
-                special.rays,
-                no_brdf.rays
-            );
-        }
-    }
-    assert_eq!(waited + gridded > 0, waits, "{waited} kernels with waiting direction rays compared");
-}
-
 /// BVH kernels whose BRDF samples find emitters in the emitters' grid and trace a shadow ray to
 /// what they find (gpu/emitter_grid.rs, `trace_emitters` in traverse_bvh.wgsl) render the generic
 /// kernel's image, whose direction samples take a closest hit over the BVH: the same answer
@@ -283,7 +208,7 @@ fn kernels_with_the_emitters_grid_render_the_generic_kernels_image() {
 }
 
 /// Baked megakernels whose camera rays test their pixel's footprint list (gpu/camera_footprints.rs)
-/// and whose direction rays wait for the end of the invocation's run (waiting_rays.wgsl,
+/// and whose direction rays wait for the end of the invocation's run (deferred_rays.wgsl,
 /// take_samples_deferred) take the same samples as the generic kernel's loop, with the same values:
 /// the same counts and rays, and sums equal up to reordered sums' rounding. The Cornell box (the
 /// textured scene's 8 triangles are too few for the lists to pay), MIS 1 + 1, BRDF samples alone (every sample's ray deferred) and light samples

@@ -192,40 +192,6 @@ fn samples_cut_short_by_a_loop_limit_are_taken_again() {
     assert_eq!(wave.truncated_samples, 0);
 }
 
-/// The same where a camera sample's direction ray waits for a later sample's pass
-/// (waiting_rays.wgsl, estimate_radiance_waiting): MIS with 64 light samples and one BRDF sample on
-/// `veach scale`'s grid of 64 lights, 256 camera samples per invocation. A sample cut short while
-/// an earlier one waits leaves the samples after that one in the sums; they fall back to the sums
-/// kept when it began to wait, and those samples are taken again. The image is the wavefront's
-/// up to the order of the sums (`assert_same_samples_reordered`), and where the limit exists
-/// samples were cut short in the kernel with waiting rays.
-#[test]
-fn samples_cut_short_while_a_direction_ray_waits_are_taken_again() {
-    let scene = load(&veach_scenes::scale_scenes::light_scene(64, 64), "stress-waiting-grid");
-    let camera = scene.camera(None).unwrap();
-    let gpu_scene = upload(&scene);
-    let s = RenderSettings {
-        spp: 256,
-        strategy: Strategy::Mis,
-        light_samples: 64,
-        brdf_samples: 1,
-        light_selection: LightSelection::Power,
-        seed: 8,
-        dispatch_target: std::time::Duration::from_secs(60),
-        ..eight_by_eight()
-    };
-    let mega = render(&gpu_scene, &s, &camera);
-    let wave = render(&gpu_scene, &RenderSettings { execution: veach::Execution::Wavefront, ..s.clone() }, &camera);
-    // Where the emitters' grid is taken (Mesa 25, which has no loop limit) no ray waits, and the
-    // two kernels still take the same samples.
-    let waits = renderer().gpu.auto_execution().waits_direction_rays() && !mega.kernel.driver.emitter_grid;
-    assert_eq!(mega.kernel.driver.waiting_direction_rays, waits);
-    let what = "waiting megakernel and wavefront";
-    assert_same_samples_reordered("stress-waiting", what, &mega.sum, &wave.sum, &wave.sum, mega.width);
-    assert_eq!(mega.truncated_samples > 0, loop_limited(), "{} samples retaken", mega.truncated_samples);
-    assert_eq!(wave.truncated_samples, 0);
-}
-
 /// One camera sample that alone needs more loop iterations than the limit allows cannot be taken
 /// at all there: the render fails with a message, instead of returning a dark image.
 #[test]

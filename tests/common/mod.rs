@@ -258,7 +258,7 @@ pub fn assert_same_rays(what: &str, a: u64, b: u64) {
 }
 
 /// Per-pixel sums of the same camera samples, added up in another order (kernels whose direction
-/// rays wait: waiting_rays.wgsl, estimate_radiance_waiting) are the same image up to the sums'
+/// rays are held: deferred_rays.wgsl, take_samples_deferred) are the same image up to the sums'
 /// rounding: every pixel has the same sample count, and each channel of a sum of n non-negative
 /// samples differs by at most 2n · 2^-24 of the sum (each of the n - 1 additions of either order
 /// rounds by at most 2^-24 of a partial sum no larger than the whole: Higham, "Accuracy and

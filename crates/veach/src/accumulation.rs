@@ -441,7 +441,7 @@ impl Accumulation {
     }
 
     /// Takes again the camera samples that Mesa 22's loop limit cut short (`loop_budget_held` in
-    /// shaders/waiting_rays.wgsl left them out), until every pixel has the samples of the passes
+    /// shaders/megakernel.wgsl left them out), until every pixel has the samples of the passes
     /// completed (`complete_samples`; at a pass boundary): each pixel continues from its own
     /// count, so it ends with the same samples as without the limit. Fails where one camera
     /// sample alone needs more loop iterations than the driver allows.
@@ -475,8 +475,8 @@ impl Accumulation {
             self.row_start = 0;
             self.sample_start = fewest;
             // Pixels that already have samples: the sums are read (fresh_sums false). No direction
-            // ray waits, so that each run keeps the samples before the one cut short
-            // (take_samples_waiting in shaders/waiting_rays.wgsl).
+            // ray is held, so that each run keeps the samples before the one cut short
+            // (take_samples_deferred in shaders/deferred_rays.wgsl).
             self.params.finish_samples = 1;
             let submitted = self.submit(self.settings.height, target - fewest, false, true);
             self.params.finish_samples = 0;

@@ -89,7 +89,7 @@ pub struct SampleShape {
 }
 
 /// What a kernel does for the driver's sake: each changes the render time, none the samples
-/// (waiting and deferred rays sum them in another order). Chosen by the adapter's profile
+/// (deferred rays sum them in another order). Chosen by the adapter's profile
 /// (`AdapterProfile`) and what the scene's upload chose for it; none in the generic kernel but
 /// the workgroup.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
@@ -111,7 +111,7 @@ pub struct DriverTuning {
     /// megakernel where the driver runs every branch under a mask (Mesa 22.3's lavapipe).
     pub footprint_slots: u32,
     /// With `footprint_slots`: direction rays wait in their invocation and are traced after its
-    /// camera samples (waiting_rays.wgsl, take_samples_deferred).
+    /// camera samples (deferred_rays.wgsl, take_samples_deferred).
     pub deferred_direction_rays: bool,
     /// A BVH kernel's BRDF samples find emitters in the emitters' grid, then trace a shadow ray to
     /// what they find (`gpu::emitter_grid`; `EMITTER_LIST`), instead of a closest hit over the BVH.
@@ -119,9 +119,6 @@ pub struct DriverTuning {
     /// The megakernel takes each camera sample in straight-line code, its direction sample's ray
     /// at a call site of its own (`straight_line_sample`).
     pub straight_line_sample: bool,
-    /// The megakernel lets a camera sample's direction ray wait for a later sample's pass, so that
-    /// the lanes of a SIMD group trace theirs together (`waiting_direction_rays`).
-    pub waiting_direction_rays: bool,
     /// Threads per workgroup of `render` and `render_light_pass`, as (columns, rows)
     /// (`GpuContext::render_workgroup`).
     pub workgroup: (u32, u32),
@@ -139,7 +136,6 @@ impl DriverTuning {
             deferred_direction_rays: false,
             emitter_grid: false,
             straight_line_sample: false,
-            waiting_direction_rays: false,
             workgroup: crate::gpu::layout::WORKGROUP_SIZE,
         }
     }
@@ -282,7 +278,6 @@ impl KernelPlan {
             bvh_stack: crate::gpu::bvh_nodes::BVH_STACK_SIZE,
             driver: DriverTuning {
                 straight_line_sample: !wavefront && straight_line_sample(features, settings, auto),
-                waiting_direction_rays: !wavefront && waiting_direction_rays(features, settings, auto),
                 ..DriverTuning::none()
             },
         }
@@ -302,9 +297,6 @@ impl KernelPlan {
         d.emitter_grid = d.baked.is_none()
             && scene.emitter_grid
             && adapter.storage_buffers_per_stage >= crate::gpu::bindings::STORAGE_BUFFERS_WITH_EMITTER_GRID;
-        // Where direction samples search the emitters' list or grid, no ray of theirs is left to
-        // wait.
-        d.waiting_direction_rays &= !d.emitter_grid && !scene.baked.is_some_and(|b| b.emitter_list());
         // Camera rays by the edge planes through the eye where this camera is at it: in the
         // wavefront's first kernel, which then has no closest-hit list at all, and in the
         // megakernel where the driver branches around the list its camera pass leaves out (Mesa
@@ -355,7 +347,6 @@ impl KernelPlan {
         // ray keeps).
         self.driver.deferred_direction_rays = self.strategy.is_some_and(|s| s != Strategy::Light)
             && !(self.techniques.point_selection && settings.light_selection == LightSelection::Bsdf);
-        self.driver.waiting_direction_rays = false;
         self.driver.camera_list = false;
         Some((lists, words))
     }
@@ -402,7 +393,6 @@ impl KernelPlan {
             ("AT_MOST_ONE_LIGHT_REQUEST", flag(self.samples.at_most_one_light_request)),
             ("AT_MOST_ONE_DIRECTION_SAMPLE", flag(self.samples.at_most_one_direction_sample)),
             ("STRAIGHT_LINE_SAMPLE", flag(d.straight_line_sample)),
-            ("WAITING_DIRECTION_RAYS", flag(d.waiting_direction_rays)),
             ("DEFERRED_DIRECTION_RAYS", flag(d.deferred_direction_rays)),
             ("RENDER_WORKGROUP_WIDTH", d.workgroup.0 as f64),
             ("RENDER_WORKGROUP_HEIGHT", d.workgroup.1 as f64),
@@ -470,8 +460,7 @@ pub enum AutoExecution {
     WavefrontForMis,
     /// lavapipe from Mesa 23 on, which branches around code that no lane of a SIMD group runs: the
     /// megakernel, as `Megakernel` (measured on Mesa 25, where the wavefront took 1.01-1.38x the
-    /// time in 11 of 12 cases, 0.96x in one), with direction rays that wait where those pay
-    /// (`waiting_direction_rays`).
+    /// time in 11 of 12 cases, 0.96x in one).
     MegakernelOnLavapipe,
     /// Every other driver: the megakernel.
     Megakernel,
@@ -493,12 +482,6 @@ impl AutoExecution {
         } else {
             AutoExecution::Megakernel
         }
-    }
-
-    /// Whether the megakernel may let direction rays wait on this driver: lavapipe, of any Mesa
-    /// release, where it was measured (`waiting_direction_rays`; its SIMD groups are 8 lanes).
-    pub fn waits_direction_rays(self) -> bool {
-        matches!(self, AutoExecution::WavefrontWhereMasked | AutoExecution::MegakernelOnLavapipe)
     }
 }
 
@@ -557,40 +540,6 @@ pub fn straight_line_sample(features: &SceneFeatures, settings: &RenderSettings,
     }
 }
 
-/// Whether the megakernel lets a camera sample's direction ray wait in its invocation for a later
-/// sample's pass (waiting_rays.wgsl, `estimate_radiance_waiting`), where lanes that have a ray
-/// trace it together instead of each sample's ray on a pass that a SIMD group runs if any lane
-/// needs it. It applies to MIS with one BRDF sample and lights chosen independently of the point
-/// (no cone samples, control variate or contribution images), and was measured on lavapipe alone
-/// (docs/performance.md, "Direction rays that wait for the lanes beside them"; 256×256, 32 spp,
-/// against the loop). On Mesa 25 `veach scale`'s grid at 1,000 and 10,000 lights took
-/// 0.90-0.96x the time. On Mesa 22.3:
-/// - `veach scale`'s grid, where 30% of camera samples have a direction ray: 10,000 lights
-///   0.89-0.92x, 1,000 lights 0.93-0.94x; 100 lights in one column, where few have one, 0.98-1.00x;
-/// - taken everywhere, the one-light grid 0.99-1.06x and the Veach scene (5.5% of its camera
-///   samples have one) 1.02x, so it is taken only past `MAX_REACH_LIGHTS` lights, where
-///   `emitter_reach` lets most direction rays through; the textured scene keeps the straight-line
-///   sample (the waiting kernel 1.19x its time).
-///
-/// Taken everywhere on Mesa 25, the Cornell box took 1.13x, the textured scene 1.05x and the
-/// one-light grid 1.05x the time, the Veach scene 0.96x. In a render of one sample per pass (the
-/// viewer's) no ray waits: 10,000 lights at 1024×1024 and 1 spp took 0.96x the loop's time on
-/// Mesa 22.3. Other drivers keep the loop (not measured).
-pub fn waiting_direction_rays(features: &SceneFeatures, settings: &RenderSettings, auto: AutoExecution) -> bool {
-    if !auto.waits_direction_rays() {
-        return false;
-    }
-    let (strategy, _, m) = effective_strategy(features, settings);
-    strategy == Strategy::Mis
-        && m == 1
-        && features.many_lights
-        && !features.textures()
-        && !cone_sampling(features, settings)
-        && !settings.control_variate
-        && !settings.write_aovs
-        && settings.light_selection != LightSelection::Bsdf
-}
-
 /// Whether a render's kernel is the wavefront (`KernelPlan::wavefront`): the generic kernel's only
 /// where asked by name.
 pub fn runs_wavefront(features: &SceneFeatures, settings: &RenderSettings, auto: AutoExecution) -> bool {
@@ -623,10 +572,7 @@ pub fn uses_wavefront(features: &SceneFeatures, settings: &RenderSettings, auto:
 
 #[cfg(test)]
 mod tests {
-    use super::{
-        AutoExecution, KernelPlan, SceneFeatures, at_most_one_sample, straight_line_sample, uses_wavefront,
-        waiting_direction_rays,
-    };
+    use super::{AutoExecution, KernelPlan, SceneFeatures, at_most_one_sample, straight_line_sample, uses_wavefront};
     use crate::settings::{LightSelection, RenderSettings, Strategy};
 
     /// The flags must bound every plan the kernel makes: a flag set where a point could take two
@@ -705,54 +651,6 @@ mod tests {
         assert!(!KernelPlan::generic().driver.straight_line_sample);
     }
 
-    /// Direction rays wait only where that was measured to pay: on Mesa 22's lavapipe, for MIS
-    /// with one BRDF sample on untextured scenes with more lights than `emitter_reach` bounds one
-    /// by one, and never where the kernel's code for it would be wrong (cone samples, the control
-    /// variate, contribution images and lights chosen per point keep the loop).
-    #[test]
-    fn direction_rays_wait_only_where_measured_to_pay() {
-        use crate::settings::{Execution, LightSampling};
-        let masked = AutoExecution::WavefrontWhereMasked;
-        let many = SceneFeatures { area_lights: true, any_glossy: true, many_lights: true, ..SceneFeatures::default() };
-        let few = SceneFeatures { many_lights: false, ..many };
-        let s = power_settings;
-        let mis = s(Strategy::Mis, 1, 1);
-        assert!(waiting_direction_rays(&many, &mis, masked));
-        assert!(waiting_direction_rays(&many, &s(Strategy::Mis, 8, 1), masked));
-        assert!(waiting_direction_rays(
-            &many,
-            &RenderSettings { light_selection: LightSelection::Each, ..mis.clone() },
-            masked
-        ));
-        assert!(!waiting_direction_rays(&few, &mis, masked));
-        assert!(!waiting_direction_rays(&many, &s(Strategy::Mis, 1, 2), masked));
-        assert!(!waiting_direction_rays(&many, &s(Strategy::Mis, 1, 0), masked));
-        for strategy in [Strategy::Light, Strategy::Brdf, Strategy::Uniform, Strategy::MisLobes] {
-            assert!(!waiting_direction_rays(&many, &s(strategy, 1, 1), masked), "{strategy:?}");
-        }
-        let textured = SceneFeatures { base_color_texture: true, ..many };
-        assert!(!waiting_direction_rays(&textured, &mis, masked));
-        let round = SceneFeatures { round_lights: true, ..many };
-        let cone = RenderSettings { light_sampling: LightSampling::Cone, ..mis.clone() };
-        assert!(!waiting_direction_rays(&round, &cone, masked));
-        for unsupported in [
-            RenderSettings { control_variate: true, ..mis.clone() },
-            RenderSettings { write_aovs: true, ..mis.clone() },
-            RenderSettings { light_selection: LightSelection::Bsdf, ..mis.clone() },
-        ] {
-            assert!(!waiting_direction_rays(&many, &unsupported, masked), "{unsupported:?}");
-        }
-        assert!(waiting_direction_rays(&many, &mis, AutoExecution::MegakernelOnLavapipe));
-        for other in [AutoExecution::Megakernel, AutoExecution::WavefrontForMis] {
-            assert!(!waiting_direction_rays(&many, &mis, other));
-        }
-        // The megakernel's alone: a wavefront asked for by name keeps its own kernels.
-        assert!(KernelPlan::specialised(&many, &mis, masked).driver.waiting_direction_rays);
-        let wavefront = RenderSettings { execution: Execution::Wavefront, ..mis.clone() };
-        assert!(!KernelPlan::specialised(&many, &wavefront, masked).driver.waiting_direction_rays);
-        assert!(!KernelPlan::generic().driver.waiting_direction_rays);
-    }
-
     #[test]
     fn auto_execution_follows_the_driver() {
         // The strings wgpu reports for lavapipe on Debian 12 and from bookworm-backports.
@@ -792,12 +690,11 @@ mod tests {
         let plan = |settings: &RenderSettings, adapter: &AdapterProfile| {
             KernelPlan::for_render(scene, settings, &camera, 0..settings.height, true, adapter).unwrap().plan
         };
-        // Mesa 25's lavapipe: the upload's uniform arrays and grid, a copy of the frame, and no
-        // waiting rays where the grid finds the emitters.
+        // Mesa 25's lavapipe: the upload's uniform arrays and grid, a copy of the frame.
         let lavapipe = plan(&mis, &profile(AutoExecution::MegakernelOnLavapipe, true));
         assert!(lavapipe.driver.frame_copy && lavapipe.driver.emitter_grid);
         assert_eq!(lavapipe.driver.uniform, uniform);
-        assert!(!lavapipe.driver.waiting_direction_rays && !lavapipe.wavefront);
+        assert!(!lavapipe.wavefront);
         assert_eq!(lavapipe.bvh_stack, 160);
         // NVIDIA: the wavefront for MIS, with its workgroup; the same semantic axes.
         let nvidia = plan(&mis, &profile(AutoExecution::WavefrontForMis, false));

@@ -237,8 +237,6 @@ impl Renderer {
             key.textures.module,
             &key.declared_bindings(),
             key.driver.baked.as_deref(),
-            // Without subgroups each invocation decides alone (lanes_none.wgsl): the same image.
-            key.driver.waiting_direction_rays && self.gpu.device.features().contains(wgpu::Features::SUBGROUP),
             key.driver.footprint_slots,
         );
         let constants = shaders::pipeline_constants(&source, &key.constants());

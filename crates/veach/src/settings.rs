@@ -110,7 +110,7 @@ impl LightSelection {
     ];
 
     /// Whether the probability of choosing a light depends on the shading point: a direction
-    /// sample's MIS weight then needs its own point's selection (no deferred or waiting rays).
+    /// sample's MIS weight then needs its own point's selection (no deferred rays).
     pub fn per_point(self) -> bool {
         matches!(self, LightSelection::Bsdf | LightSelection::Tree)
     }

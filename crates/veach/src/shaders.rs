@@ -10,8 +10,7 @@ use crate::gpu::bindings::{DeclaredBindings, wgsl_declarations};
 /// bindings a kernel's plan decides go (`gpu::bindings::wgsl_declarations`). `TRAVERSAL` marks where the traversal goes: `traverse_bvh.wgsl`, or `traverse_baked.wgsl` with a
 /// small scene's triangles written in. `TEXTURES` marks where the texture module goes:
 /// `textures.wgsl` for scenes with textures (and the generic kernel), `textures_none.wgsl` (same
-/// functions, no bindings) otherwise. `LANES` marks where the subgroup votes go: `lanes.wgsl` for
-/// kernels that use them on a device that has them, `lanes_none.wgsl` (same functions) otherwise.
+/// functions, no bindings) otherwise.
 pub const SHADER_FILES: &[(&str, &str)] = &[
     ("layout.wgsl", include_str!("../../../shaders/layout.wgsl")),
     BINDINGS,
@@ -23,7 +22,6 @@ pub const SHADER_FILES: &[(&str, &str)] = &[
     ("traverse.wgsl", include_str!("../../../shaders/traverse.wgsl")),
     TRAVERSAL,
     TEXTURES,
-    LANES,
     ("bsdf.wgsl", include_str!("../../../shaders/bsdf.wgsl")),
     ("lights.wgsl", include_str!("../../../shaders/lights.wgsl")),
     ("light_selection.wgsl", include_str!("../../../shaders/light_selection.wgsl")),
@@ -35,7 +33,7 @@ pub const SHADER_FILES: &[(&str, &str)] = &[
     ("light_samples.wgsl", include_str!("../../../shaders/light_samples.wgsl")),
     ("direction_samples.wgsl", include_str!("../../../shaders/direction_samples.wgsl")),
     ("direct.wgsl", include_str!("../../../shaders/direct.wgsl")),
-    ("waiting_rays.wgsl", include_str!("../../../shaders/waiting_rays.wgsl")),
+    ("deferred_rays.wgsl", include_str!("../../../shaders/deferred_rays.wgsl")),
     ("megakernel.wgsl", include_str!("../../../shaders/megakernel.wgsl")),
     ("wavefront.wgsl", include_str!("../../../shaders/wavefront.wgsl")),
 ];
@@ -47,9 +45,6 @@ const TRAVERSE_BAKED: (&str, &str) = ("traverse_baked.wgsl", include_str!("../..
 const TEXTURES: (&str, &str) = ("textures", "");
 const TEXTURES_ON: (&str, &str) = ("textures.wgsl", include_str!("../../../shaders/textures.wgsl"));
 const TEXTURES_OFF: (&str, &str) = ("textures_none.wgsl", include_str!("../../../shaders/textures_none.wgsl"));
-const LANES: (&str, &str) = ("lanes", "");
-const LANES_ON: (&str, &str) = ("lanes.wgsl", include_str!("../../../shaders/lanes.wgsl"));
-const LANES_OFF: (&str, &str) = ("lanes_none.wgsl", include_str!("../../../shaders/lanes_none.wgsl"));
 
 /// The test kernels, joined after the render kernel's files.
 pub const TEST_KERNELS: (&str, &str) = ("test_kernels.wgsl", include_str!("../../../shaders/test_kernels.wgsl"));
@@ -59,7 +54,7 @@ pub const TEST_ENTRY_POINT: &str = "run_test";
 /// `declared`) followed by the test kernels (see `gpu::test_kernel`).
 pub fn test_kernel_source(baked: Option<&BakedTriangles>, declared: &DeclaredBindings) -> String {
     let (name, text) = TEST_KERNELS;
-    let render = render_kernel_source(true, declared, baked, false, 0);
+    let render = render_kernel_source(true, declared, baked, 0);
     format!("{render}// ---- shaders/{name} ----\n{}\n", shader_text(name, text))
 }
 
@@ -73,13 +68,11 @@ pub const WAVEFRONT_ENTRY_POINTS: [&str; 3] = ["render_light_pass", "prepare_dir
 /// the emitters' grid and the traversal's stack are declared (`KernelPlan`'s uniform arrays,
 /// frame copy, emitters' grid and stack). With `baked` triangles, rays test those instead of
 /// traversing the BVH (`KernelPlan::baked`), and camera rays test footprint lists of
-/// `footprint_slots` triangles (0: none). With `lane_votes` the invocations of a subgroup vote with
-/// subgroup operations (lanes.wgsl), which the device must have (wgpu's `Features::SUBGROUP`).
+/// `footprint_slots` triangles (0: none).
 pub fn render_kernel_source(
     textures: bool,
     declared: &DeclaredBindings,
     baked: Option<&BakedTriangles>,
-    lane_votes: bool,
     footprint_slots: u32,
 ) -> String {
     let mut source = String::new();
@@ -94,8 +87,6 @@ pub fn render_kernel_source(
             TRAVERSAL => TRAVERSE_BVH,
             TEXTURES if textures => TEXTURES_ON,
             TEXTURES => TEXTURES_OFF,
-            LANES if lane_votes => LANES_ON,
-            LANES => LANES_OFF,
             other => other,
         };
         let text = shader_text(name, text);
@@ -274,7 +265,7 @@ mod tests {
             split_declared_constants("override STRAIGHT_LINE_SAMPLE_X: bool;", &[("STRAIGHT_LINE_SAMPLE", 1.0)]);
         assert!(kept.is_empty());
         // The built-in shaders declare every constant a kernel is given.
-        let source = render_kernel_source(true, &DeclaredBindings::plain(), None, false, 0);
+        let source = render_kernel_source(true, &DeclaredBindings::plain(), None, 0);
         let (_, left_out) = split_declared_constants(&source, &crate::kernel_plan::KernelPlan::generic().constants());
         assert!(left_out.is_empty(), "{left_out:?}");
     }
@@ -310,7 +301,7 @@ mod tests {
             (false, small, true, Some(&baked)),
         ] {
             let declared = DeclaredBindings { uniform, frame_copy, ..DeclaredBindings::plain() };
-            let source = render_kernel_source(textures, &declared, baked, false, 0);
+            let source = render_kernel_source(textures, &declared, baked, 0);
             if frame_copy {
                 assert!(source.contains("var<private> frame: FrameParams;") && source.contains("frame = frame_in;"));
                 // Every entry point fills the copy before anything reads it.
@@ -346,10 +337,10 @@ mod tests {
     #[test]
     fn a_deeper_trees_kernel_gets_a_larger_stack() {
         let declares = |n: u32| format!("const BVH_STACK_SIZE: u32 = {n}u;");
-        let default = render_kernel_source(false, &DeclaredBindings::plain(), None, false, 0);
+        let default = render_kernel_source(false, &DeclaredBindings::plain(), None, 0);
         assert!(default.contains(&declares(BVH_STACK_SIZE)), "the stack is not BVH_STACK_SIZE");
         let deeper = DeclaredBindings { bvh_stack: 160, ..DeclaredBindings::plain() };
-        let deeper = render_kernel_source(false, &deeper, None, false, 0);
+        let deeper = render_kernel_source(false, &deeper, None, 0);
         assert!(deeper.contains(&declares(160)) && !deeper.contains(&declares(BVH_STACK_SIZE)));
         validate_wgsl(&deeper).unwrap_or_else(|e| panic!("WGSL invalid:\n{e}"));
     }

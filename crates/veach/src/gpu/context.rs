@@ -48,16 +48,12 @@ impl GpuContext {
     }
 
     /// What veach asks of a device: the adapter's own limits (the defaults allow only 8
-    /// storage buffers per stage), and timestamp queries and subgroup operations where there are
-    /// any (subgroup votes: shaders/lanes.wgsl). The viewer asks
+    /// storage buffers per stage), and timestamp queries where there are any. The viewer asks
     /// eframe for a device with this, so that the window and the renderer share one.
     pub fn device_descriptor(adapter: &wgpu::Adapter) -> wgpu::DeviceDescriptor<'static> {
         let mut required_features = wgpu::Features::empty();
         if adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY) {
             required_features |= wgpu::Features::TIMESTAMP_QUERY;
-        }
-        if adapter.features().contains(wgpu::Features::SUBGROUP) {
-            required_features |= wgpu::Features::SUBGROUP;
         }
         wgpu::DeviceDescriptor {
             label: Some("veach"),

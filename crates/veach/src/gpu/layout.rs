@@ -90,8 +90,8 @@ pub struct FrameParams {
     pub emitter_max: [f32; 3],
     /// The image's height; `height` is the pixel buffers' (a tile's rows).
     pub image_height: u32,
-    /// 1: no camera sample's direction ray waits for a later sample's pass (`take_samples_waiting`
-    /// in waiting_rays.wgsl): set where samples cut short are taken again.
+    /// 1: no direction ray is held for the end of a run (`take_samples_deferred` in
+    /// deferred_rays.wgsl): set where samples cut short are taken again.
     pub finish_samples: u32,
     /// The camera sample index of a pixel's sample 0: a render of samples [first_sample,
     /// first_sample + spp) of the one sample sequence (`--first-sample`, for renders split
