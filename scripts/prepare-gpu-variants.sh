@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds and strips the binary, and writes one folder of shaders per experiment branch (and the
-# wavefront-runs branch at other run lengths, and main's shaders with straight-line samples or
-# waiting direction rays forced on) under .gpu/shaders, for scripts/gpu-variants.sh on a lent GPU:
+# wavefront-runs branch at other run lengths, and main's shaders with straight-line samples forced
+# on) under .gpu/shaders, for scripts/gpu-variants.sh on a lent GPU:
 # run(command="scripts/gpu-variants.sh", carry=[".gpu", ".gl"]). Branches that change only
 # shaders/ are measured by main's binary this way (docs/performance.md, "The wavefront taken apart
 # on the H200"); a branch's folder without a constant main's binary sets runs with it left out.
@@ -49,15 +49,4 @@ sed -i 's/if STRAIGHT_LINE_SAMPLE && AT_MOST_ONE_DIRECTION_SAMPLE/if AT_MOST_ONE
     .gpu/shaders/straight-line/direct.wgsl
 grep -q "if AT_MOST_ONE_DIRECTION_SAMPLE && !CONE_SAMPLING {" .gpu/shaders/straight-line/direct.wgsl
 echo ".gpu/shaders/straight-line from main's shaders"
-# main's shaders with direction rays that wait in every megakernel (WAITING_DIRECTION_RAYS, set on
-# Mesa 22 only): the constant a `const` the binary cannot override, and the subgroup vote in the
-# file a kernel without it reads (the GPU's device has subgroups). Valid for the sweep's renders
-# (area light samples, no control variate or contribution images); run with EXECUTIONS=megakernel.
-mkdir -p .gpu/shaders/waiting
-cp shaders/*.wgsl .gpu/shaders/waiting/
-sed -i 's/^override WAITING_DIRECTION_RAYS: bool = false;/const WAITING_DIRECTION_RAYS: bool = true;/' \
-    .gpu/shaders/waiting/features.wgsl
-grep -q "^const WAITING_DIRECTION_RAYS: bool = true;" .gpu/shaders/waiting/features.wgsl
-cp shaders/lanes.wgsl .gpu/shaders/waiting/lanes_none.wgsl
-echo ".gpu/shaders/waiting from main's shaders"
 du -sh .gpu

@@ -309,9 +309,9 @@ impl KernelPlan {
     /// test only their pixel's footprint list, and direction rays wait for the end of the
     /// invocation's run, so that its camera samples run no closest-hit list at all
     /// (docs/performance.md, "Camera rays by footprint lists"; on Mesa 25, which branches, the
-    /// camera list's loop stays faster: 1.05x the time with them). Measured on the zoo: they
-    /// apply to 2 of its 35 scenes (a camera inside a box, the degenerate emitters), 0.85-0.89x
-    /// their render time with light sampling, 0.88-1.05x with MIS 1 + 1.
+    /// camera list's loop stays faster: 1.05x the time with them). On the zoo at 256x256 they
+    /// apply to 3 of its 35 scenes, which take 1.12-1.28x the time without them
+    /// (docs/performance.md, "Driver-specific paths on the zoo").
     fn footprints(
         &mut self,
         scene: UploadedScene,
