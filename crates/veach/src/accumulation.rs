@@ -203,7 +203,7 @@ impl Accumulation {
         let outputs = [&accum, &accum_sq, &counters, &aov_light, &aov_brdf];
         let adapter = gpu.profile();
         let PlannedKernel { plan: key, footprints } =
-            KernelPlan::for_render(scene.uploaded(), image, camera, rows.clone(), runs_of_samples, &adapter)?;
+            KernelPlan::for_render(scene.uploaded(), image, camera, rows.clone(), runs_of_samples, &adapter);
         if w.div_ceil(key.driver.workgroup.0) > device.limits().max_compute_workgroups_per_dimension {
             return Err(Error::Options(format!("width {w} exceeds this adapter's dispatch limit")));
         }

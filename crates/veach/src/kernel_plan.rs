@@ -9,7 +9,6 @@
 //! wavefront), the traversal's stack, and one group of driver tuning (`DriverTuning`), which only
 //! changes speed, never the image beyond the order of a sum.
 
-use crate::error::Result;
 use crate::features::{SceneFeatures, UniformArrays};
 use crate::gpu::baked_triangles::BakedTriangles;
 use crate::gpu::camera_footprints::{CameraFootprints, FilmFrame};
@@ -220,7 +219,7 @@ impl KernelPlan {
         rows: std::ops::Range<u32>,
         runs_of_samples: bool,
         adapter: &AdapterProfile,
-    ) -> Result<PlannedKernel> {
+    ) -> PlannedKernel {
         let mut plan = if settings.specialise {
             KernelPlan::specialised(scene.features, settings, adapter.auto)
         } else {
@@ -234,7 +233,7 @@ impl KernelPlan {
             plan.driver_tuning(scene, camera, adapter);
             footprints = plan.footprints(scene, settings, camera, rows, runs_of_samples, adapter);
         }
-        Ok(PlannedKernel { plan, footprints })
+        PlannedKernel { plan, footprints }
     }
 
     /// The kernel specialised to a scene's features and a render's settings, with the driver
@@ -688,7 +687,7 @@ mod tests {
         };
         let mis = RenderSettings { strategy: Strategy::Mis, light_samples: 1, brdf_samples: 1, ..Default::default() };
         let plan = |settings: &RenderSettings, adapter: &AdapterProfile| {
-            KernelPlan::for_render(scene, settings, &camera, 0..settings.height, true, adapter).unwrap().plan
+            KernelPlan::for_render(scene, settings, &camera, 0..settings.height, true, adapter).plan
         };
         // Mesa 25's lavapipe: the upload's uniform arrays and grid, a copy of the frame.
         let lavapipe = plan(&mis, &profile(AutoExecution::MegakernelOnLavapipe, true));
