@@ -13,7 +13,7 @@ Why paired: on the 2-core VMs this project is measured on, one build's render ti
 0.89 in one series. A ratio taken within a round cancels the drift that both runs share; the
 interval says when the difference is within what is left (two A/A series of 15 rounds gave
 0.88-1.08 and 0.93-1.07). The fastest run of each build is a second estimate, less hit by interference,
-which only adds time. Render options default to issue 9's benchmark setting (MIS 1 + 1, power
+which only adds time. Render options default to the benchmark setting (MIS 1 + 1, power
 heuristic, lights by power, emitters hidden, 16 spp); options after `--` replace them all.
 """
 import argparse

@@ -7,7 +7,7 @@
 #   cp target/release/veach /tmp/veach-b    # after it
 #   scripts/ab-render.sh /tmp/veach-a /tmp/veach-b assets/cornell-box.gltf 9 [RENDER OPTIONS]
 #
-# The render options default to issue 9's benchmark setting (MIS 1 + 1, power heuristic, power
+# The render options default to the benchmark setting (MIS 1 + 1, power heuristic, power
 # light selection, emitters hidden, 32 spp); options given after the run count replace them all.
 # LP_NUM_THREADS=1 in the environment runs lavapipe on one thread, whose times
 # spread less on a shared 2-core machine.

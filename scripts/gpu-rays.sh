@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Issue 9's GPU measurement: rays per second on both shipped scenes, with the light strategy
 # (1 sample: camera + shadow rays) and MIS 1 + 1, at 1920x1080, with the megakernel and with the
-# wavefront kernels (issue 9 asks which wins on a GPU), and optionally with other workgroup sizes
+# wavefront kernels (which wins on a GPU), and optionally with other workgroup sizes
 # (VEACH_WORKGROUP). Prints a table and writes gpu-rays.csv and each render's --stats JSON to $OUT
 # (or target/gpu-rays).
 #
