@@ -7,7 +7,7 @@ For each scene: `veach export-mitsuba` writes the same triangles, normals, radia
 as Mitsuba XML/PLY; a reference is rendered by veach (MIS 4+4, every light, --reference-spp; past 32 lights 16+4 with
 lights chosen by power);
 then veach (MIS, 1 light + 1 BRDF sample per camera sample, one light chosen per shading point by
-power and the BSDF (--veach-light-selection; `power` for power alone), the power heuristic) and
+the light tree (--veach-light-selection), the power heuristic: veach's defaults) and
 Mitsuba 3 (`llvm_ad_rgb`, integrator `direct` with emitter_samples = bsdf_samples
 = 1, whose MIS weights are the power heuristic with the sample counts: the same estimator) render
 at 1, 2, 4 ... --max-spp samples per pixel over --seeds seeds. Emitters seen directly are left
@@ -17,9 +17,10 @@ uploads excluded), Mitsuba's wall clock around mi.render after one untimed rende
 sample count (so that its JIT compilation is excluded too). relMSE = mean over pixels and
 channels of (x - r)^2 / (r^2 + 1e-2), efficiency = 1 / (relMSE x seconds).
 
-Light samples: by area on the chosen light's triangles, as Mitsuba samples its mesh emitters;
-`--veach-light-sampling cone` samples round lights (the Veach scene's spheres) by their bounding
-cones instead, a technique Mitsuba applies to its analytic `sphere` shapes but not to meshes;
+Light samples: by default as `veach render` takes them (`auto`: rectangles by solid angle, round
+lights by their bounding cones, other lights by area); `--veach-light-sampling area` samples by
+area on the chosen light's triangles, as Mitsuba samples its mesh emitters. Cones are a technique
+Mitsuba applies to its analytic `sphere` shapes but not to meshes;
 `--mitsuba-spheres` exports those lights as spheres of the same area (`veach export-mitsuba
 --round-lights-as-spheres`), so that both renderers sample them by cone (the geometry then
 differs by the tessellation: the "relMSE between references" column says by how much).
@@ -113,11 +114,13 @@ def main():
     ap.add_argument("--mitsuba-reference-spp", type=int, default=4096)
     ap.add_argument("--veach", default="target/release/veach")
     ap.add_argument("--veach-sampler", default="sobol", choices=["sobol", "independent"])
-    ap.add_argument("--veach-light-selection", default="bsdf", choices=["power", "bsdf", "uniform", "tree"],
-                    help="how veach's timed renders choose their one light (the reference samples each)")
-    ap.add_argument("--veach-light-sampling", default="area", choices=["area", "solid-angle", "cone"],
-                    help="how veach's timed renders sample a point or direction on the chosen light: area (the "
-                         "same technique as Mitsuba's mesh emitters), or cone (spheres by their bounding cone)")
+    ap.add_argument("--veach-light-selection", default="tree", choices=["power", "bsdf", "uniform", "tree"],
+                    help="how veach's timed renders choose their one light (the reference samples each); "
+                         "default: veach's own default, the light tree")
+    ap.add_argument("--veach-light-sampling", default="auto", choices=["auto", "area", "solid-angle", "cone"],
+                    help="how veach's timed renders sample a point or direction on the chosen light: auto "
+                         "(veach's default: each light by its shape), area (the same technique as Mitsuba's "
+                         "mesh emitters), solid-angle, or cone (spheres by their bounding cone)")
     ap.add_argument("--veach-control-variate", action="store_true",
                     help="veach's timed renders add the unshadowed diffuse light in closed form and sample only "
                          "the difference (veach render --control-variate; at most 32 emitter triangles)")

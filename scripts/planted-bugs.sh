@@ -22,6 +22,8 @@ mkdir -p -m 700 "$XDG_RUNTIME_DIR"
 bugs=(
   "shaders/lights.wgsl|let denom = abs(cos_light) * area;|let denom = area;|sampling|area_light|area pdf converted without cos θ_l"
   "shaders/lights.wgsl|let denom = abs(cos_light) * area;|let denom = area;|analytic|area_and_point|(same bug, seen by the closed form)"
+  "shaders/sampling.wgsl|    let hv = h0 + u.y * (h1 - h0);|    let hv = h0 + u.y * u.y * (h1 - h0);|sampling|area_light|spherical rectangle: height along the edge not uniform in h"
+  "shaders/lights.wgsl|        s.pdf = 1.0 / rectangle.solid_angle;|        s.pdf = 2.0 / rectangle.solid_angle;|sampling|area_light|spherical rectangle: pdf not 1 / Ω"
   "shaders/sampling.wgsl|return max(cos_theta, 0.0) * INV_PI;|return max(cos_theta, 0.0) * 2.0 * INV_PI;|sampling|hemisphere|cosine pdf off by a factor 2"
   "shaders/bsdf.wgsl|return smith_g1(wo.z, alpha) * ggx_d(h, alpha) / (4.0 * wo.z);|return ggx_d(h, alpha) / (4.0 * wo.z);|sampling|ggx_visible|VNDF pdf without the G1 masking term"
   "shaders/bsdf.wgsl|return p_spec * ggx_vndf_pdf(wo, wi, p.alpha) + diffuse;|return 0.5 * ggx_vndf_pdf(wo, wi, p.alpha) + diffuse;|sampling|gltf_brdf|mixture pdf ignores the lobe probability"

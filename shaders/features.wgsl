@@ -20,10 +20,15 @@ override POINT_LIGHT_SELECTION: bool = true;
 // The scene has exactly one light: every light index is 0, read as a constant (lights.wgsl's
 // light_at), where lavapipe gathers a record at a run-time index lane by lane.
 override SINGLE_LIGHT: bool = false;
-// Light samples may pick directions by solid angle (frame.light_sampling); false: by area only.
+// Light samples may pick directions in emitter triangles' solid angle (frame.light_sampling ==
+// LIGHT_SAMPLING_SOLID_ANGLE); false: by area only.
 override SOLID_ANGLE_SAMPLING: bool = true;
+// Light samples may pick directions in rectangle lights' solid angle (frame.light_sampling ==
+// LIGHT_SAMPLING_SOLID_ANGLE or LIGHT_SAMPLING_AUTO; lights.wgsl, rectangle_sampled).
+override RECTANGLE_SAMPLING: bool = true;
 // Light samples may pick directions in round lights' bounding cones (frame.light_sampling ==
-// LIGHT_SAMPLING_CONE): they are then traced as direction samples (light_samples.wgsl).
+// LIGHT_SAMPLING_CONE or LIGHT_SAMPLING_AUTO): they are then traced as direction samples
+// (light_samples.wgsl).
 override CONE_SAMPLING: bool = true;
 // Some light sample may be a point on a light with a shadow ray; false where CONE_SAMPLING takes
 // every light (each is round), so the kernel has no shadow-ray traversal at all.

@@ -22,8 +22,12 @@ const SELECT_TREE: u32 = 4u;
 const LIGHT_SAMPLING_AREA: u32 = 0u;
 const LIGHT_SAMPLING_SOLID_ANGLE: u32 = 1u;
 const LIGHT_SAMPLING_CONE: u32 = 2u;
+const LIGHT_SAMPLING_AUTO: u32 = 3u;
 const SAMPLER_SOBOL: u32 = 0u;
 const SAMPLER_INDEPENDENT: u32 = 1u;
+
+// Light.parallelogram's bit for a rectangle.
+const RECTANGLE_LIGHT: u32 = 4u;
 
 const LIGHT_AREA: u32 = 0u;
 const LIGHT_POINT: u32 = 1u;
@@ -221,7 +225,8 @@ struct Light {
     // (light_subtrees.rs, is_round): LIGHT_SAMPLING_CONE samples it by the cone the sphere subtends.
     round: u32,
     // 1 + the corner of the light's first emitter triangle opposite the edge it shares with the
-    // second where the two make a parallelogram (light_subtrees.rs, parallelogram_corner), else 0.
+    // second where the two make a parallelogram (light_subtrees.rs, parallelogram_corner), else 0;
+    // plus RECTANGLE_LIGHT where its edges there are perpendicular (light_shape.rs, is_rectangle).
     parallelogram: u32,
 }
 

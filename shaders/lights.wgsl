@@ -54,6 +54,7 @@ fn area_to_solid_angle_pdf(dist_sq: f32, cos_light: f32, area: f32) -> f32 {
 // 7e-4 sr the mean direction moved by 5% of the triangle's width; found with a chi-square test
 // in tests/sampling.rs and a float32 replay), and a triangle that small is nearly uniform in
 // solid angle under area sampling anyway.
+// The same number as light_shape.rs, MIN_SPHERICAL_SAMPLE_SOLID_ANGLE.
 const MIN_SPHERICAL_SAMPLE_AREA: f32 = 1.0e-2;
 const MAX_SPHERICAL_SAMPLE_AREA: f32 = 6.22;
 
@@ -88,12 +89,54 @@ fn parallelogram_point(light: Light, u: vec2f) -> vec3f {
 
 // The same, given the corners t of the light's first triangle.
 fn parallelogram_point_on(light: Light, t: TrianglePositions, u: vec2f) -> vec3f {
-    let k = light.parallelogram - 1u;
+    let q = parallelogram_edges(light, t);
+    return q.o + u.x * q.e_u + u.y * q.e_v;
+}
+
+// A parallelogram light's corner k = (parallelogram & 3) - 1 of its first triangle t, and its edges
+// from there to corners k + 1 and k + 2 (mod 3).
+struct ParallelogramEdges {
+    o: vec3f,
+    e_u: vec3f,
+    e_v: vec3f,
+}
+
+fn parallelogram_edges(light: Light, t: TrianglePositions) -> ParallelogramEdges {
+    let k = (light.parallelogram & 3u) - 1u;
     let o = select(select(t.p2, t.p1, k == 1u), t.p0, k == 0u);
-    // Corners k + 1 and k + 2 (mod 3).
     let s0 = select(select(t.p0, t.p2, k == 1u), t.p1, k == 0u);
     let s1 = select(select(t.p1, t.p0, k == 1u), t.p2, k == 0u);
-    return o + u.x * (s0 - o) + u.y * (s1 - o);
+    return ParallelogramEdges(o, s0 - o, s1 - o);
+}
+
+// With RECTANGLE_SAMPLING and LIGHT_SAMPLING_SOLID_ANGLE or _AUTO, a rectangle light
+// (Light.parallelogram has RECTANGLE_LIGHT) is sampled uniformly in its solid angle as a whole
+// (Ureña et al. 2013; sampling.wgsl, sample_spherical_rectangle), pdf 1 / Ω: bounded where area
+// sampling's r² / |cos θ_l| grows (grazing angles, receivers touching the light), and the Sobol
+// points' strata stay equal in solid angle over the whole light. Like triangles, rectangles
+// subtending less than MIN_SPHERICAL_SAMPLE_AREA keep area sampling, which is nearly uniform in
+// solid angle there. Returns the rectangle seen from x, its solid angle 0 where area sampling
+// takes it.
+fn rectangle_sampled(light: Light, x: vec3f) -> SphericalRectangle {
+    var r = SphericalRectangle(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    let mode = frame.light_sampling;
+    if !RECTANGLE_SAMPLING || (light.parallelogram & RECTANGLE_LIGHT) == 0u
+        || !(mode == LIGHT_SAMPLING_SOLID_ANGLE || mode == LIGHT_SAMPLING_AUTO) {
+        return r;
+    }
+    // A planar light of area A within radius R of its centre subtends at most A / (d − R)² from a
+    // point at distance d: below the threshold, the setup is skipped (the same test, on the same
+    // inputs, in sampling and in the pdf).
+    let beyond = length(light.position - x) - light.bound_radius;
+    if beyond > 0.0 && light.area < MIN_SPHERICAL_SAMPLE_AREA * beyond * beyond {
+        return r;
+    }
+    let q = parallelogram_edges(light, triangle_corners(light_triangle(light, 0u)));
+    r = spherical_rectangle(x, q.o, q.e_u, q.e_v);
+    if !(r.solid_angle >= MIN_SPHERICAL_SAMPLE_AREA) {
+        r.solid_angle = 0.0;
+    }
+    return r;
 }
 
 // Barycentrics (b1, b2) of point y in the plane of triangle v, whose edges from v.p0 are e1 and e2
@@ -121,14 +164,23 @@ fn barycentrics_inside(b: vec2f) -> vec2f {
 // Area light: an emitter triangle chosen by area, then a point uniform on it (pdf 1/A in area,
 // converted to solid angle), or, with LIGHT_SAMPLING_SOLID_ANGLE, a direction uniform in the
 // triangle's solid angle (pdf P(triangle) / Ω, Arvo 1995), which stays bounded where r² → 0
-// at a contact edge and where cos θ_l → 0 at grazing angles.
+// at a contact edge and where cos θ_l → 0 at grazing angles. A rectangle light seen wide enough,
+// with LIGHT_SAMPLING_SOLID_ANGLE or _AUTO, is sampled as one spherical rectangle instead
+// (rectangle_sampled).
 fn sample_area_light(index: u32, light: Light, x: vec3f, u_light: vec2f) -> LightSample {
-    let parallelogram = parallelogram_sampled(light);
+    let rectangle = rectangle_sampled(light, x);
+    // A rectangle sampled by solid angle gives a point (s, t) of the unit square, which maps onto
+    // it as an area sample's u does.
+    var u_square = u_light;
+    if rectangle.solid_angle > 0.0 {
+        u_square = sample_spherical_rectangle(rectangle, u_light);
+    }
+    let parallelogram = rectangle.solid_angle > 0.0 || parallelogram_sampled(light);
     let pick = select_emitter_triangle(light, u_light.x);
     var tri = pick.index;
     if parallelogram {
         // The parallelogram's second triangle is where u.x + u.y > 1 (parallelogram_point).
-        tri = light_triangle(light, select(0u, 1u, u_light.x + u_light.y > 1.0));
+        tri = light_triangle(light, select(0u, 1u, u_square.x + u_square.y > 1.0));
     }
     let u = vec2f(pick.u, u_light.y);
     let v = triangle_corners(tri);
@@ -139,10 +191,10 @@ fn sample_area_light(index: u32, light: Light, x: vec3f, u_light: vec2f) -> Ligh
     var b = sample_uniform_triangle(u);
     var y = v.p0 + b.x * e1 + b.y * e2;
     if parallelogram {
-        y = parallelogram_point(light, u_light);
+        y = parallelogram_point(light, u_square);
         b = triangle_barycentrics(v, e1, e2, n, y);
     }
-    let omega = spherical_sampling_solid_angle(x, v.p0, v.p1, v.p2);
+    let omega = select(spherical_sampling_solid_angle(x, v.p0, v.p1, v.p2), 0.0, rectangle.solid_angle > 0.0);
     var failed = false;
     if omega > 0.0 {
         let w = sample_spherical_triangle(x, v.p0, v.p1, v.p2, u);
@@ -163,7 +215,9 @@ fn sample_area_light(index: u32, light: Light, x: vec3f, u_light: vec2f) -> Ligh
     // In front of the sampled triangle's plane, the receiver sees a convex light nowhere else.
     s.skip = select(0u, index + 1u, light.convex != 0u && dot(n_l, wi) < 0.0);
     s.value = light.intensity * emitter_emission_texture(tri, b.x, b.y);
-    if omega > 0.0 {
+    if rectangle.solid_angle > 0.0 {
+        s.pdf = 1.0 / rectangle.solid_angle;
+    } else if omega > 0.0 {
         s.pdf = (0.5 * length(n) / light.area) / omega;
     } else {
         s.pdf = area_to_solid_angle_pdf(dist_sq, dot(n_l, wi), light.area);
@@ -171,7 +225,7 @@ fn sample_area_light(index: u32, light: Light, x: vec3f, u_light: vec2f) -> Ligh
     return s;
 }
 
-// With LIGHT_SAMPLING_CONE, a round light (Light.round: convex, filling at least half of its
+// With LIGHT_SAMPLING_CONE or _AUTO, a round light (Light.round: convex, filling at least half of its
 // bounding sphere's surface) is sampled by the cone its bounding sphere subtends: a direction
 // uniform in the cone (pdf 1 / Ω), traced to its closest hit, which counts where it is the chosen
 // light (pbrt-v4 §6.2.4, Sphere::Sample; Shirley et al. 1996); from inside the sphere, by a
@@ -180,7 +234,7 @@ fn sample_area_light(index: u32, light: Light, x: vec3f, u_light: vec2f) -> Ligh
 // silhouette; the cone's density is constant over the light. Other lights keep area sampling;
 // without SHADOW_RAY_LIGHTS the kernel has none.
 fn cone_sampled(light: Light) -> bool {
-    if !CONE_SAMPLING || frame.light_sampling != LIGHT_SAMPLING_CONE {
+    if !CONE_SAMPLING || !(frame.light_sampling == LIGHT_SAMPLING_CONE || frame.light_sampling == LIGHT_SAMPLING_AUTO) {
         return false;
     }
     return !SHADOW_RAY_LIGHTS || (light.kind == LIGHT_AREA && light.round != 0u);
@@ -271,6 +325,10 @@ fn area_light_direction_pdf(index: u32, x: vec3f, v: TrianglePositions, y: vec3f
     if cone_sampled(light) {
         // Every point of the light lies in its bounding sphere, so in the cone.
         return cone_pdf(bounding_cone(light, x));
+    }
+    let rectangle = rectangle_sampled(light, x);
+    if rectangle.solid_angle > 0.0 {
+        return 1.0 / rectangle.solid_angle;
     }
     let n = cross(v.p1 - v.p0, v.p2 - v.p0);
     let omega = spherical_sampling_solid_angle(x, v.p0, v.p1, v.p2);

@@ -170,3 +170,80 @@ fn sample_spherical_triangle(x: vec3f, p0: vec3f, p1: vec3f, p2: vec3f, u: vec2f
     let sin_theta = sqrt(max(0.0, 1.0 - cos_theta * cos_theta));
     return normalize(cos_theta * b + sin_theta * orthonormal_to(cp, b));
 }
+
+// A rectangle seen from x, set up for sample_spherical_rectangle: Ureña, Fajardo and King, "An
+// Area-Preserving Parametrization for Spherical Rectangles", EGSR 2013, §3. In the frame of unit
+// edges ex, ey and ez = ex × ey turned away from x, the rectangle spans [x0, x1] × [y0, y1] at
+// height z0 ≤ 0 below x. b0, b1 are the z components of the normals of the planes through x and
+// the edges y = y0 and y = y1; k = 2π − γ2 − γ3 from the spherical rectangle's inner angles γ.
+struct SphericalRectangle {
+    x0: f32,
+    y0: f32,
+    z0: f32,
+    x1: f32,
+    y1: f32,
+    b0: f32,
+    b1: f32,
+    // k − π, so that sin and cos of u·Ω + k come from sin_cos_accurate.
+    k_minus_pi: f32,
+    solid_angle: f32,
+}
+
+// The rectangle from corner o along perpendicular edges e_u, e_v, seen from x. Its solid angle is
+// that of its two triangles by van Oosterom and Strackee (accurate for small rectangles, where the
+// angle sum γ0 + γ1 + γ2 + γ3 − 2π of Ureña's eq. 2 cancels); 0 where x lies in its plane.
+fn spherical_rectangle(x: vec3f, o: vec3f, e_u: vec3f, e_v: vec3f) -> SphericalRectangle {
+    let len_u = length(e_u);
+    let len_v = length(e_v);
+    let d = o - x;
+    let ex = e_u / len_u;
+    let ey = e_v / len_v;
+    let z = dot(d, cross(ex, ey));
+    let x0 = dot(d, ex);
+    let y0 = dot(d, ey);
+    let x1 = x0 + len_u;
+    let y1 = y0 + len_v;
+    let z0 = -abs(z);
+    // The planes' normals (Ureña eq. 3, unnormalised n0 = (0, z0, −y0), n1 = (−z0, 0, x1),
+    // n2 = (0, −z0, y1), n3 = (z0, 0, −x0)) and the inner angles γi = acos(−ni · ni+1).
+    let n0 = vec3f(0.0, z0, -y0) * inverseSqrt(z0 * z0 + y0 * y0);
+    let n1 = vec3f(-z0, 0.0, x1) * inverseSqrt(z0 * z0 + x1 * x1);
+    let n2 = vec3f(0.0, -z0, y1) * inverseSqrt(z0 * z0 + y1 * y1);
+    let n3 = vec3f(z0, 0.0, -x0) * inverseSqrt(z0 * z0 + x0 * x0);
+    let g2 = acos(clamp(-dot(n2, n3), -1.0, 1.0));
+    let g3 = acos(clamp(-dot(n3, n0), -1.0, 1.0));
+    let far = o + e_u + e_v;
+    var omega = spherical_triangle_solid_angle(x, o, o + e_u, far) + spherical_triangle_solid_angle(x, o, far, o + e_v);
+    if !(z0 < 0.0) {
+        omega = 0.0;
+    }
+    return SphericalRectangle(x0, y0, z0, x1, y1, n0.z, n2.z, PI - g2 - g3, omega);
+}
+
+// A point uniform in the solid angle of rectangle r (pdf 1 / Ω), as its coordinates (s, t) in
+// [0, 1]² along the edges: Ureña et al. 2013, Algorithm 1. u.x fixes the sub-rectangle of solid
+// angle u.x Ω, whose edge x = xu follows from cos of the angle there (cu); u.y the height yv
+// along that edge, uniform in h = y / √(xu² + z0² + y²). The (s, t) are kept EDGE_MARGIN inside
+// the square, so that a ray aimed at the point does not miss the light by its rounding.
+fn sample_spherical_rectangle(r: SphericalRectangle, u: vec2f) -> vec2f {
+    // sin and cos of au = u.x Ω + k = π + a.
+    let a = u.x * r.solid_angle + r.k_minus_pi;
+    let sc = sin_cos_accurate(abs(a));
+    let sin_au = -sign(a) * sc.x;
+    let cos_au = -sc.y;
+    // cu = sign(fu) / √(fu² + b0²) with fu = (cos au b0 − b1) / sin au, written without dividing
+    // by sin au, which is 0 at the ends of the range.
+    let f = cos_au * r.b0 - r.b1;
+    let denom = sqrt(f * f + r.b0 * r.b0 * sin_au * sin_au);
+    var cu = select(0.0, select(-1.0, 1.0, f >= 0.0) * sin_au / denom, denom > 0.0);
+    cu = clamp(cu, -ONE_MINUS_EPSILON, ONE_MINUS_EPSILON);
+    let xu = clamp(-(cu * r.z0) * inverseSqrt(1.0 - cu * cu), r.x0, r.x1);
+    let dd = sqrt(xu * xu + r.z0 * r.z0);
+    let h0 = r.y0 * inverseSqrt(dd * dd + r.y0 * r.y0);
+    let h1 = r.y1 * inverseSqrt(dd * dd + r.y1 * r.y1);
+    let hv = h0 + u.y * (h1 - h0);
+    let hv2 = hv * hv;
+    let yv = clamp(select(r.y1, hv * dd * inverseSqrt(1.0 - hv2), hv2 < 1.0 - 1.0e-6), r.y0, r.y1);
+    let st = vec2f((xu - r.x0) / (r.x1 - r.x0), (yv - r.y0) / (r.y1 - r.y0));
+    return clamp(st, vec2f(EDGE_MARGIN), vec2f(1.0 - EDGE_MARGIN));
+}

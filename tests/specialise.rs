@@ -62,7 +62,7 @@ fn specialised_kernels_render_the_generic_kernels_image() {
                 (true, LightSelection::Power, LightSampling::Area, 2),
                 (false, LightSelection::Bsdf, LightSampling::Area, 2),
                 (true, LightSelection::Bsdf, LightSampling::Cone, 2),
-                (false, LightSelection::Bsdf, LightSampling::Area, 1),
+                (false, LightSelection::Bsdf, LightSampling::Auto, 1),
                 (true, LightSelection::Power, LightSampling::Cone, 1),
             ] {
                 let settings = RenderSettings {
@@ -530,7 +530,10 @@ fn kernels_are_cached_per_feature_set_and_strategy() {
         let out = render(&gpu_scene, &settings(strategy), &camera);
         assert_eq!(out.kernel_creation, Duration::ZERO, "{strategy:?} was compiled again");
     }
-    assert_eq!(gpu_scene.features.describe(), "area lights, parallelogram lights, one light, all diffuse");
+    assert_eq!(
+        gpu_scene.features.describe(),
+        "area lights, parallelogram lights, rectangle lights, one light, all diffuse"
+    );
 }
 
 /// Shadow rays of a kernel with baked triangles leave out the triangles that no shadow ray can

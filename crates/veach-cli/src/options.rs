@@ -30,10 +30,12 @@ pub enum HeuristicArg {
 pub enum LightSamplingArg {
     /// A point uniform on the light's area (pdf r² / (|cos θ_l| A)); a quad light through the linear map of the unit square
     Area,
-    /// A direction uniform in the emitter triangle's solid angle (Arvo 1995; pdf 1/Ω)
+    /// A direction uniform in the light's solid angle (pdf 1/Ω): a rectangle as a whole (Ureña 2013), other lights by triangle (Arvo 1995)
     SolidAngle,
     /// Spheres (round convex lights): a direction uniform in their bounding cone (pdf 1/Ω), traced to the light; other lights by area
     Cone,
+    /// Each light by its shape: round lights by cone, rectangles by solid angle (Ureña 2013), others by area
+    Auto,
 }
 
 #[derive(Clone, Copy, ValueEnum)]
@@ -89,6 +91,7 @@ pub fn light_sampling_of(arg: LightSamplingArg) -> LightSampling {
         LightSamplingArg::Area => LightSampling::Area,
         LightSamplingArg::SolidAngle => LightSampling::SolidAngle,
         LightSamplingArg::Cone => LightSampling::Cone,
+        LightSamplingArg::Auto => LightSampling::Auto,
     }
 }
 

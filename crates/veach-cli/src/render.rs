@@ -25,14 +25,14 @@ enum AovArg {
 #[command(after_long_help = "DEFAULTS
   Without --strategy, veach picks what measured best on its scene zoo (bench/zoo.py): MIS with
   1 light + 1 BRDF sample per camera sample, the power heuristic, one light chosen per shading
-  point by the light tree per light sample, 32 camera samples per pixel. Each option given
-  replaces its part of that.
+  point by the light tree per light sample, each light sampled by its shape (--light-sampling
+  auto), 32 camera samples per pixel. Each option given replaces its part of that.
 
 SAMPLE COUNTS
   --spp is the number of camera samples per pixel (jittered over the pixel). At each camera
   sample's first hit, the strategy takes its own samples of the direct-lighting integral. Named
   with --strategy, each takes the counts of the classic comparison (and 1 spp, every light
-  sampled, the balance heuristic):
+  sampled by area, the balance heuristic):
     uniform: --brdf-samples uniform hemisphere directions      (default 1024)
     brdf:    --brdf-samples BRDF samples                       (default 64)
     light:   --light-samples light samples                     (default 64)
@@ -85,9 +85,9 @@ pub struct RenderArgs {
     /// How light samples choose a light [default: tree; each with --strategy]
     #[arg(long, value_enum)]
     light_selection: Option<SelectionArg>,
-    /// How a light sample picks its point on an emitter triangle, or its direction towards a round light
-    #[arg(long, value_enum, default_value_t = LightSamplingArg::Area)]
-    light_sampling: LightSamplingArg,
+    /// How a light sample picks its point on a light, or its direction towards it [default: auto; area with --strategy]
+    #[arg(long, value_enum)]
+    light_sampling: Option<LightSamplingArg>,
     /// Where the camera samples' random numbers come from
     #[arg(long, value_enum, default_value_t = SamplerArg::Sobol)]
     sampler: SamplerArg,
@@ -165,7 +165,8 @@ pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
     // BSDF gained 1.06-1.10x over power on average but fell to 0.23-0.35x on point and spot lights
     // and degenerate emitters; the light tree gained 1.36x over power on average (seed 1), 1.2-12x
     // on every scene of 100 lights or more, and chose no worse per sample anywhere but one glossy
-    // scene (1.12x power's relMSE there).
+    // scene (1.12x power's relMSE there). Lights sampled by shape (auto) over area: see
+    // docs/performance.md, "Light sampling by shape".
     let named = args.strategy.is_some();
     let strategy = args.strategy.map_or(Strategy::Mis, strategy_of);
     let (default_light, default_brdf) = if named { strategy.default_sample_counts() } else { (1, 1) };
@@ -229,7 +230,11 @@ pub fn settings_from(args: &RenderArgs) -> Result<RenderSettings> {
             (None, true) => veach::LightSelection::Each,
             (None, false) => veach::LightSelection::Tree,
         },
-        light_sampling: light_sampling_of(args.light_sampling),
+        light_sampling: match (args.light_sampling, named) {
+            (Some(l), _) => light_sampling_of(l),
+            (None, true) => veach::LightSampling::Area,
+            (None, false) => veach::LightSampling::Auto,
+        },
         sampler: sampler_of(args.sampler),
         seed: args.seed,
         time_limit,

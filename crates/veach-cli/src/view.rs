@@ -40,7 +40,7 @@ pub struct ViewArgs {
     #[arg(long, value_enum, default_value_t = SelectionArg::Power)]
     light_selection: SelectionArg,
     /// How a light sample picks its point on an emitter triangle, or its direction towards a round light
-    #[arg(long, value_enum, default_value_t = LightSamplingArg::Area)]
+    #[arg(long, value_enum, default_value_t = LightSamplingArg::Auto)]
     light_sampling: LightSamplingArg,
     /// Where the camera samples' random numbers come from
     #[arg(long, value_enum, default_value_t = SamplerArg::Sobol)]

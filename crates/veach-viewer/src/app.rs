@@ -413,6 +413,7 @@ impl ViewerApp {
                 ui.radio_value(&mut c.light_sampling, LightSampling::Area, "area");
                 ui.radio_value(&mut c.light_sampling, LightSampling::SolidAngle, "solid angle");
                 ui.radio_value(&mut c.light_sampling, LightSampling::Cone, "cone (spheres)");
+                ui.radio_value(&mut c.light_sampling, LightSampling::Auto, "auto (by shape)");
             });
         });
         ui.checkbox(&mut c.control_variate, "unshadowed light as a control variate").on_hover_text(

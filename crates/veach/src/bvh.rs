@@ -4,7 +4,7 @@
 //! contiguous.
 
 use crate::scene::Triangle;
-use glam::Vec3A;
+use glam::{Vec3, Vec3A};
 use obvhs::BvhBuildParams;
 use std::time::{Duration, Instant};
 
@@ -78,6 +78,41 @@ fn build_bvh_with(triangles: &[Triangle], params: BvhBuildParams) -> Bvh {
         .collect();
     let sah_cost = sah_cost(&nodes);
     Bvh { nodes, order: bvh2.primitive_indices, build_time: start.elapsed(), sah_cost }
+}
+
+impl Bvh {
+    /// Does a triangle of `triangles` (the ones the tree was built over) that `counts` have its
+    /// bounding box within `radius` of `centre`? Boxes stand in for triangles, so a yes may be a
+    /// near miss; a no is certain.
+    pub fn any_triangle_near(
+        &self,
+        triangles: &[Triangle],
+        centre: Vec3,
+        radius: f32,
+        counts: impl Fn(u32, &Triangle) -> bool,
+    ) -> bool {
+        let reaches = |min: Vec3, max: Vec3| (centre.clamp(min, max) - centre).length_squared() <= radius * radius;
+        let mut stack = vec![0usize];
+        while let Some(i) = stack.pop() {
+            let Some(n) = self.nodes.get(i) else { continue };
+            if !reaches(Vec3::from(n.min), Vec3::from(n.max)) {
+                continue;
+            }
+            if n.count == 0 {
+                stack.extend([n.first as usize, n.first as usize + 1]);
+                continue;
+            }
+            let leaf = &self.order[n.first as usize..(n.first + n.count) as usize];
+            for &t in leaf {
+                let Some(tri) = triangles.get(t as usize) else { continue };
+                let (min, max) = (tri.p[0].min(tri.p[1]).min(tri.p[2]), tri.p[0].max(tri.p[1]).max(tri.p[2]));
+                if reaches(min, max) && counts(t, tri) {
+                    return true;
+                }
+            }
+        }
+        false
+    }
 }
 
 pub(crate) fn half_area(n: &BvhNode) -> f32 {

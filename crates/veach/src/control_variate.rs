@@ -27,8 +27,14 @@ pub fn check(features: &SceneFeatures, emitter_triangles: u32, settings: &Render
     if effective_strategy(features, settings).0 == Strategy::MisLobes {
         return refuse("works with the uniform, brdf, light and mis strategies, not mis-lobes".into());
     }
-    if settings.light_sampling == LightSampling::Cone {
-        return refuse("works with area and solid-angle light sampling, not cone".into());
+    if settings.light_sampling == LightSampling::Cone
+        || (settings.light_sampling == LightSampling::Auto && features.round_lights)
+    {
+        return refuse(
+            "works with area and solid-angle light sampling, not cones (cone, or auto on round lights): \
+             add --light-sampling area or solid-angle"
+                .into(),
+        );
     }
     if features.emissive_texture {
         return refuse("needs lights of constant radiance; this scene has emission textures".into());

@@ -36,6 +36,10 @@ pub struct SceneFeatures {
     pub parallelogram_lights: bool,
     /// Every area light is a parallelogram (true where there are none).
     pub all_area_lights_parallelograms: bool,
+    /// Some parallelogram light is a rectangle, which `LightSampling::spherical_rectangles`
+    /// samples by its solid angle; the upload, which has the BVH, clears it where no surface comes
+    /// near enough to any to see it at 0.01 sr (`light_shape::rectangle_lights_seen_wide`).
+    pub rectangle_lights: bool,
     /// More lights than `emitter_reach` (lights.wgsl) bounds one by one (`MAX_REACH_LIGHTS`): a
     /// direction sample's ray is then traced wherever it crosses one sphere and box around all
     /// of them, which lets through many more rays than the lights' own spheres.
@@ -82,6 +86,7 @@ impl SceneFeatures {
             all_lights_round: !round.is_empty() && round.iter().all(|&r| r),
             parallelogram_lights: shapes.iter().any(|s| s.is_some_and(|s| s.parallelogram.is_some())),
             all_area_lights_parallelograms: shapes.iter().flatten().all(|s| s.parallelogram.is_some()),
+            rectangle_lights: shapes.iter().any(|s| s.is_some_and(|s| s.rectangle)),
             many_lights: scene.lights.len() > MAX_REACH_LIGHTS,
             base_color_texture: materials().any(|m| m.base_color_texture.is_some()),
             metallic_roughness_texture: materials().any(|m| m.metallic_roughness_texture.is_some()),
@@ -110,6 +115,7 @@ impl SceneFeatures {
         add(self.area_lights, "area lights");
         add(self.round_lights, "round lights");
         add(self.parallelogram_lights, "parallelogram lights");
+        add(self.rectangle_lights, "rectangle lights");
         add(self.point_lights, "point lights");
         add(self.spot_lights, "spot lights");
         add(self.directional_lights, "directional lights");

@@ -55,8 +55,10 @@ pub struct Lobes {
 /// How light samples may be taken.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct LightTechniques {
-    /// By solid angle (`LightSampling::SolidAngle`).
+    /// Emitter triangles by their solid angle (`LightSampling::SolidAngle`).
     pub solid_angle: bool,
+    /// Rectangle lights by their solid angle (`LightSampling::spherical_rectangles`).
+    pub rectangles: bool,
     /// As directions in round lights' bounding cones (`LightSampling::Cone`).
     pub cone: bool,
     /// As points with shadow rays: false where `cone` takes every light.
@@ -192,6 +194,7 @@ impl KernelPlan {
             lobes: Lobes { glossy: true, mirrors: true },
             techniques: LightTechniques {
                 solid_angle: true,
+                rectangles: true,
                 cone: true,
                 shadow_rays: true,
                 parallelograms: true,
@@ -253,8 +256,9 @@ impl KernelPlan {
             lobes: Lobes { glossy: features.any_glossy, mirrors: features.any_mirror },
             techniques: LightTechniques {
                 solid_angle: features.area_lights && settings.light_sampling == LightSampling::SolidAngle,
+                rectangles: features.rectangle_lights && settings.light_sampling.spherical_rectangles(),
                 cone: cone_sampling(features, settings),
-                shadow_rays: !(features.all_lights_round && settings.light_sampling == LightSampling::Cone),
+                shadow_rays: !(features.all_lights_round && settings.light_sampling.cones()),
                 parallelograms,
                 triangle_picks: !(parallelograms && features.all_area_lights_parallelograms),
                 point_selection: !features.single_light
@@ -380,6 +384,7 @@ impl KernelPlan {
             ("HAS_MIRRORS", flag(self.lobes.mirrors)),
             ("HAS_AOVS", flag(self.aovs)),
             ("SOLID_ANGLE_SAMPLING", flag(t.solid_angle)),
+            ("RECTANGLE_SAMPLING", flag(t.rectangles)),
             ("CONE_SAMPLING", flag(t.cone)),
             ("SHADOW_RAY_LIGHTS", flag(t.shadow_rays)),
             ("PARALLELOGRAM_LIGHTS", flag(t.parallelograms)),
@@ -506,7 +511,7 @@ fn mesa_major(driver_info: &str) -> Option<u32> {
 
 /// Whether light samples may be directions in round lights' bounding cones (`LightTechniques::cone`).
 fn cone_sampling(features: &SceneFeatures, settings: &RenderSettings) -> bool {
-    features.round_lights && settings.light_sampling == LightSampling::Cone
+    features.round_lights && settings.light_sampling.cones()
 }
 
 /// Whether the megakernel takes its camera samples in straight-line code (direct.wgsl,

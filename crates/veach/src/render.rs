@@ -12,6 +12,7 @@ use crate::gpu::emitter_grid::EmitterGrid;
 use crate::gpu::layout::{self, FrameParams};
 use crate::gpu::scene_buffers::{SceneArrays, build_scene_arrays};
 use crate::kernel_plan::{KernelPlan, runs_branches_masked};
+use crate::scene::light_shape::rectangle_lights_seen_wide;
 
 use crate::scene::{Camera, LightKind, Scene};
 use crate::settings::{Heuristic, LightSampling, LightSelection, RenderSettings, Sampler, Strategy};
@@ -304,7 +305,8 @@ impl Renderer {
             ..Default::default()
         };
         let upload_start = Instant::now();
-        let features = SceneFeatures::detect(scene);
+        let mut features = SceneFeatures::detect(scene);
+        features.rectangle_lights = features.rectangle_lights && rectangle_lights_seen_wide(scene, &bvh);
         let mut arrays: SceneArrays = build_scene_arrays(scene, &features, &bvh);
         // Where the arrays may be uniform (a CPU adapter, `BvhMemory::Auto`), a small scene's
         // triangles are compiled into the kernel instead (before the arrays are padded).
@@ -548,6 +550,7 @@ impl Renderer {
                 LightSampling::Area => layout::LIGHT_SAMPLING_AREA,
                 LightSampling::SolidAngle => layout::LIGHT_SAMPLING_SOLID_ANGLE,
                 LightSampling::Cone => layout::LIGHT_SAMPLING_CONE,
+                LightSampling::Auto => layout::LIGHT_SAMPLING_AUTO,
             },
             sampler: match s.sampler {
                 Sampler::Sobol => layout::SAMPLER_SOBOL,

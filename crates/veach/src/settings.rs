@@ -49,15 +49,32 @@ pub enum LightSampling {
     /// map of the unit square onto it (the same density, better stratified).
     #[default]
     Area,
-    /// An emitter triangle chosen by area, then a direction uniform in its solid angle (Arvo
-    /// 1995): p_ω = P(triangle) / Ω, bounded where area sampling's r² / cos θ_l blows up (contact
-    /// edges, grazing angles). Triangles that subtend less than 0.01 sr keep area sampling.
+    /// A direction uniform in the light's solid angle, bounded where area sampling's
+    /// r² / cos θ_l blows up (contact edges, grazing angles): a rectangle as a whole (Ureña et al.
+    /// 2013), p_ω = 1 / Ω; any other light by an emitter triangle chosen by area, then a direction
+    /// uniform in its solid angle (Arvo 1995), p_ω = P(triangle) / Ω. Lights and triangles that
+    /// subtend less than 0.01 sr keep area sampling.
     SolidAngle,
     /// Round lights (convex, filling at least half of their bounding sphere's surface: a
     /// tessellated sphere, a cube): a direction uniform in the cone that sphere subtends
     /// (pbrt-v4's `Sphere::Sample`; every direction from inside it), p_ω = P(light) / Ω, traced
     /// to its closest hit. Every other light by area.
     Cone,
+    /// Each light by the technique its shape suits: round lights by their cones (as `Cone`),
+    /// rectangles by their solid angle (as `SolidAngle`), every other light by area.
+    Auto,
+}
+
+impl LightSampling {
+    /// Are round lights sampled by their bounding cones?
+    pub fn cones(self) -> bool {
+        matches!(self, LightSampling::Cone | LightSampling::Auto)
+    }
+
+    /// Are rectangle lights sampled by their solid angle?
+    pub fn spherical_rectangles(self) -> bool {
+        matches!(self, LightSampling::SolidAngle | LightSampling::Auto)
+    }
 }
 
 /// Where a camera sample's random numbers come from (shaders/sampler.wgsl).
@@ -122,6 +139,7 @@ impl LightSampling {
             LightSampling::Area => "area",
             LightSampling::SolidAngle => "solid-angle",
             LightSampling::Cone => "cone",
+            LightSampling::Auto => "auto",
         }
     }
 }
@@ -191,9 +209,10 @@ pub struct RenderSettings {
 }
 
 impl RenderSettings {
-    /// MIS with 1 light + 1 BRDF sample per camera sample, the power heuristic and one light
-    /// chosen per shading point by the light tree per light sample: `veach render`'s defaults
-    /// (measured on the scene zoo), the viewer's start and `veach scale`'s setting.
+    /// MIS with 1 light + 1 BRDF sample per camera sample, the power heuristic, one light chosen
+    /// per shading point by the light tree per light sample, and each light sampled by its shape:
+    /// `veach render`'s defaults (measured on the scene zoo), the viewer's start and `veach
+    /// scale`'s setting.
     pub fn recommended() -> RenderSettings {
         RenderSettings {
             strategy: Strategy::Mis,
@@ -201,6 +220,7 @@ impl RenderSettings {
             brdf_samples: 1,
             heuristic: Heuristic::Power,
             light_selection: LightSelection::Tree,
+            light_sampling: LightSampling::Auto,
             ..Default::default()
         }
     }

@@ -22,6 +22,9 @@ pub const SELECT_TREE: u32 = 4;
 pub const LIGHT_SAMPLING_AREA: u32 = 0;
 pub const LIGHT_SAMPLING_SOLID_ANGLE: u32 = 1;
 pub const LIGHT_SAMPLING_CONE: u32 = 2;
+pub const LIGHT_SAMPLING_AUTO: u32 = 3;
+/// `Light::parallelogram`'s bit for a rectangle.
+pub const RECTANGLE_LIGHT: u32 = 4;
 pub const SAMPLER_SOBOL: u32 = 0;
 pub const SAMPLER_INDEPENDENT: u32 = 1;
 
@@ -221,7 +224,8 @@ pub struct Light {
     pub round: u32,
     /// 1 + the corner of the light's first emitter triangle opposite the edge it shares with the
     /// second where the two make a parallelogram (`scene::light_shape::parallelogram_corner`),
-    /// else 0: area samples then map the unit square onto the parallelogram linearly.
+    /// else 0: area samples then map the unit square onto the parallelogram linearly. Plus
+    /// RECTANGLE_LIGHT where its edges there are perpendicular (`scene::light_shape::is_rectangle`).
     pub parallelogram: u32,
 }
 

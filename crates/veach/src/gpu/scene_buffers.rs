@@ -179,7 +179,8 @@ pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) ->
     for (g, shape) in lights.iter_mut().zip(&shapes) {
         g.convex = shape.convex as u32;
         g.round = shape.round as u32;
-        g.parallelogram = shape.parallelogram.map_or(0, |k| k + 1);
+        g.parallelogram =
+            shape.parallelogram.map_or(0, |k| k + 1) | if shape.rectangle { layout::RECTANGLE_LIGHT } else { 0 };
     }
     let convex: Vec<bool> = shapes.iter().map(|s| s.convex).collect();
 

@@ -1,7 +1,7 @@
 //! The shape of an area light, decided once from its triangles for the light records, the scene's
 //! features and the Mitsuba exporter: convex (its shadow rays skip the BVH subtrees it alone fills,
-//! `gpu::light_subtrees`), round (sampled by its bounding sphere's cone) and a parallelogram (area
-//! samples map the unit square onto it).
+//! `gpu::light_subtrees`), round (sampled by its bounding sphere's cone), a parallelogram (area
+//! samples map the unit square onto it) and a rectangle (sampled by its solid angle as a whole).
 
 use super::Scene;
 use glam::Vec3;
@@ -18,16 +18,21 @@ pub struct AreaLightShape {
     pub round: bool,
     /// The corner of the light's first triangle opposite the edge it shares with the second.
     pub parallelogram: Option<u32>,
+    /// A parallelogram whose edges at that corner are perpendicular (`is_rectangle`): sampled
+    /// uniformly in its solid angle (Ureña et al. 2013) where light samples go by solid angle.
+    pub rectangle: bool,
 }
 
 pub fn area_light_shape(scene: &Scene, triangles: &[u32]) -> AreaLightShape {
     let corners = triangle_corners(scene, triangles);
     let (_, radius) = bounding_sphere(corners.iter().flatten().copied());
     let convex = is_convex(&corners);
+    let parallelogram = parallelogram_corner(&corners);
     AreaLightShape {
         convex,
         round: convex && is_round(&corners, radius),
-        parallelogram: parallelogram_corner(&corners),
+        parallelogram,
+        rectangle: parallelogram.is_some_and(|k| is_rectangle(&corners[0], k)),
     }
 }
 
@@ -129,6 +134,48 @@ pub fn parallelogram_corner(triangles: &[[Vec3; 3]]) -> Option<u32> {
     })
 }
 
+/// Lights and emitter triangles that subtend less than this (sr) keep area sampling where light
+/// samples go by solid angle (shaders/lights.wgsl, MIN_SPHERICAL_SAMPLE_AREA: the same number).
+pub const MIN_SPHERICAL_SAMPLE_SOLID_ANGLE: f32 = 1e-2;
+
+/// Can some rectangle light of the scene subtend MIN_SPHERICAL_SAMPLE_SOLID_ANGLE from a point of
+/// a triangle not its own, so that solid-angle sampling ever takes it? A planar light of area A
+/// within radius r of its centre subtends at most A / d² from a point d beyond that sphere, so
+/// only triangles within r + √(A / Ω_min) of the centre can see it that wide, and of a one-sided
+/// light only those with a corner in front of it (not the ceiling it hangs from). Where none can,
+/// kernels leave the spherical rectangles out: on drivers that run both sides of a branch
+/// (Mesa 22.3's lavapipe) their code costs time even where no sample takes it.
+pub fn rectangle_lights_seen_wide(scene: &Scene, bvh: &crate::bvh::Bvh) -> bool {
+    scene.lights.iter().any(|light| {
+        let crate::scene::LightKind::Area { triangles, double_sided, .. } = &light.kind else { return false };
+        if !area_light_shape(scene, triangles).rectangle {
+            return false;
+        }
+        let (centre, radius) = bounding_sphere(triangle_corners(scene, triangles).into_iter().flatten());
+        let area: f32 = triangles.iter().map(|&t| scene.triangles[t as usize].area()).sum();
+        let reach = radius + (area / MIN_SPHERICAL_SAMPLE_SOLID_ANGLE).sqrt();
+        let [p0, p1, p2] = scene.triangles[triangles[0] as usize].p;
+        let normal = (p1 - p0).cross(p2 - p0);
+        let in_front = |t: &super::Triangle| *double_sided || t.p.iter().any(|&p| normal.dot(p - p0) > 0.0);
+        bvh.any_triangle_near(&scene.triangles, centre, reach, |i, t| !triangles.contains(&i) && in_front(t))
+    })
+}
+
+/// The most |cos| between a rectangle light's edges. The spherical rectangle sampler takes the
+/// edges as perpendicular and maps its points back onto the parallelogram, so a skew of cos ε
+/// moves the density by about ε: 1e-4 is far below what any estimate resolves, and far above the
+/// rounding of a rectangle written in f32 (about 1e-7).
+pub const MAX_RECTANGLE_SKEW: f32 = 1e-4;
+
+/// Are the edges of parallelogram light's first triangle at its corner k (`parallelogram_corner`)
+/// perpendicular, within MAX_RECTANGLE_SKEW?
+pub fn is_rectangle(first: &[Vec3; 3], k: u32) -> bool {
+    let k = k as usize;
+    let (u, v) = (first[(k + 1) % 3] - first[k], first[(k + 2) % 3] - first[k]);
+    let lengths = u.length() * v.length();
+    lengths > 0.0 && u.dot(v).abs() <= MAX_RECTANGLE_SKEW * lengths
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -161,6 +208,22 @@ mod tests {
         assert_eq!(parallelogram_corner(&[[a, a, c], [a, c, c]]), None);
         // Rounding within the tolerance still fits.
         assert_eq!(parallelogram_corner(&[[a, b, c], [a, c, d + Vec3::X * 1e-6]]), Some(1));
+    }
+
+    #[test]
+    fn a_parallelogram_with_perpendicular_edges_is_a_rectangle() {
+        let (a, b, c) = (Vec3::new(0.0, 0.0, 1.0), Vec3::new(2.0, 0.0, 1.0), Vec3::new(2.0, 1.0, 1.0));
+        // Corner 1 (b) is the right angle of [a, b, c]; corners 0 and 2 are not.
+        assert!(is_rectangle(&[a, b, c], 1));
+        assert!(!is_rectangle(&[a, b, c], 0));
+        assert!(!is_rectangle(&[a, b, c], 2));
+        // Skewed by 1e-3 in cos: a parallelogram, not a rectangle; by 1e-6: a rectangle in f32.
+        assert!(!is_rectangle(&[a, b, Vec3::new(2.002, 1.0, 1.0)], 1));
+        assert!(is_rectangle(&[a, b, Vec3::new(2.000002, 1.0, 1.0)], 1));
+        assert!(!is_rectangle(&[a, a, c], 0), "degenerate");
+        let quad = triangles(&MeshData::quad(Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y, Vec3::Z));
+        let k = parallelogram_corner(&quad).unwrap();
+        assert!(is_rectangle(&quad[0], k));
     }
 
     #[test]
