@@ -24,18 +24,7 @@ pub fn check(features: &SceneFeatures, emitter_triangles: u32, settings: &Render
         return Ok(());
     }
     let refuse = |why: String| Err(Error::Options(format!("--control-variate: {why}")));
-    if effective_strategy(features, settings).0 == Strategy::MisLobes {
-        return refuse("works with the uniform, brdf, light and mis strategies, not mis-lobes".into());
-    }
-    if settings.light_sampling == LightSampling::Cone
-        || (settings.light_sampling == LightSampling::Auto && features.round_lights)
-    {
-        return refuse(
-            "works with area and solid-angle light sampling, not cones (cone, or auto on round lights): \
-             add --light-sampling area or solid-angle"
-                .into(),
-        );
-    }
+    // What the scene rules out is said first: no other option helps there.
     if features.emissive_texture {
         return refuse("needs lights of constant radiance; this scene has emission textures".into());
     }
@@ -47,6 +36,18 @@ pub fn check(features: &SceneFeatures, emitter_triangles: u32, settings: &Render
             "integrates every emitter triangle at each shading point, so it takes scenes of at most \
              {MAX_CONTROL_VARIATE_TRIANGLES}; this one has {emitter_triangles}"
         ));
+    }
+    if effective_strategy(features, settings).0 == Strategy::MisLobes {
+        return refuse("works with the uniform, brdf, light and mis strategies, not mis-lobes".into());
+    }
+    if settings.light_sampling == LightSampling::Cone
+        || (settings.light_sampling == LightSampling::Auto && features.round_lights)
+    {
+        return refuse(
+            "works with area and solid-angle light sampling, not cones (cone, or auto on round lights): \
+             add --light-sampling area or solid-angle"
+                .into(),
+        );
     }
     Ok(())
 }
