@@ -118,7 +118,7 @@ fn parallelogram_edges(light: Light, t: TrianglePositions) -> ParallelogramEdges
 // solid angle there. Returns the rectangle seen from x, its solid angle 0 where area sampling
 // takes it.
 fn rectangle_sampled(light: Light, x: vec3f) -> SphericalRectangle {
-    var r = SphericalRectangle(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
+    var r = SphericalRectangle(0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0);
     let mode = frame.light_sampling;
     if !RECTANGLE_SAMPLING || (light.parallelogram & RECTANGLE_LIGHT) == 0u
         || !(mode == LIGHT_SAMPLING_SOLID_ANGLE || mode == LIGHT_SAMPLING_AUTO) {

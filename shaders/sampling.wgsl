@@ -175,7 +175,8 @@ fn sample_spherical_triangle(x: vec3f, p0: vec3f, p1: vec3f, p2: vec3f, u: vec2f
 // Area-Preserving Parametrization for Spherical Rectangles", EGSR 2013, §3. In the frame of unit
 // edges ex, ey and ez = ex × ey turned away from x, the rectangle spans [x0, x1] × [y0, y1] at
 // height z0 ≤ 0 below x. b0, b1 are the z components of the normals of the planes through x and
-// the edges y = y0 and y = y1; k = 2π − γ2 − γ3 from the spherical rectangle's inner angles γ.
+// the edges y = y0 and y = y1; the inner angles γ2 + γ3 at the corners (x1, y1) and (x0, y1) are
+// kept as their cosine and sine, so that no arc cosine is taken.
 struct SphericalRectangle {
     x0: f32,
     y0: f32,
@@ -184,14 +185,15 @@ struct SphericalRectangle {
     y1: f32,
     b0: f32,
     b1: f32,
-    // k − π, so that sin and cos of u·Ω + k come from sin_cos_accurate.
-    k_minus_pi: f32,
+    cos_g23: f32,
+    sin_g23: f32,
     solid_angle: f32,
 }
 
 // The rectangle from corner o along perpendicular edges e_u, e_v, seen from x. Its solid angle is
-// that of its two triangles by van Oosterom and Strackee (accurate for small rectangles, where the
-// angle sum γ0 + γ1 + γ2 + γ3 − 2π of Ureña's eq. 2 cancels); 0 where x lies in its plane.
+// that of its two triangles by van Oosterom and Strackee, tan(Ω_i / 2) = N_i / D_i, summed as one
+// arc tangent (tan of a sum): accurate for small rectangles, where the angle sum
+// γ0 + γ1 + γ2 + γ3 − 2π of Ureña's eq. 2 cancels; 0 where x lies in its plane.
 fn spherical_rectangle(x: vec3f, o: vec3f, e_u: vec3f, e_v: vec3f) -> SphericalRectangle {
     let len_u = length(e_u);
     let len_v = length(e_v);
@@ -205,19 +207,28 @@ fn spherical_rectangle(x: vec3f, o: vec3f, e_u: vec3f, e_v: vec3f) -> SphericalR
     let y1 = y0 + len_v;
     let z0 = -abs(z);
     // The planes' normals (Ureña eq. 3, unnormalised n0 = (0, z0, −y0), n1 = (−z0, 0, x1),
-    // n2 = (0, −z0, y1), n3 = (z0, 0, −x0)) and the inner angles γi = acos(−ni · ni+1).
+    // n2 = (0, −z0, y1), n3 = (z0, 0, −x0)); cos γi = −ni · ni+1, sin γi = |ni × ni+1|.
     let n0 = vec3f(0.0, z0, -y0) * inverseSqrt(z0 * z0 + y0 * y0);
-    let n1 = vec3f(-z0, 0.0, x1) * inverseSqrt(z0 * z0 + x1 * x1);
     let n2 = vec3f(0.0, -z0, y1) * inverseSqrt(z0 * z0 + y1 * y1);
     let n3 = vec3f(z0, 0.0, -x0) * inverseSqrt(z0 * z0 + x0 * x0);
-    let g2 = acos(clamp(-dot(n2, n3), -1.0, 1.0));
-    let g3 = acos(clamp(-dot(n3, n0), -1.0, 1.0));
-    let far = o + e_u + e_v;
-    var omega = spherical_triangle_solid_angle(x, o, o + e_u, far) + spherical_triangle_solid_angle(x, o, far, o + e_v);
-    if !(z0 < 0.0) {
+    let c2 = -dot(n2, n3);
+    let c3 = -dot(n3, n0);
+    let s2 = length(cross(n2, n3));
+    let s3 = length(cross(n3, n0));
+    // Unit directions to the corners, and the two triangles (v00, v10, v11), (v00, v11, v01).
+    let a = normalize(vec3f(x0, y0, z0));
+    let b = normalize(vec3f(x1, y0, z0));
+    let c = normalize(vec3f(x1, y1, z0));
+    let e = normalize(vec3f(x0, y1, z0));
+    let n_1 = abs(dot(a, cross(b, c)));
+    let d_1 = 1.0 + dot(a, b) + dot(b, c) + dot(c, a);
+    let n_2 = abs(dot(a, cross(c, e)));
+    let d_2 = 1.0 + dot(a, c) + dot(c, e) + dot(e, a);
+    var omega = 2.0 * atan2(n_1 * d_2 + n_2 * d_1, d_1 * d_2 - n_1 * n_2);
+    if !(z0 < 0.0 && omega == omega) {
         omega = 0.0;
     }
-    return SphericalRectangle(x0, y0, z0, x1, y1, n0.z, n2.z, PI - g2 - g3, omega);
+    return SphericalRectangle(x0, y0, z0, x1, y1, n0.z, n2.z, c2 * c3 - s2 * s3, s2 * c3 + c2 * s3, omega);
 }
 
 // A point uniform in the solid angle of rectangle r (pdf 1 / Ω), as its coordinates (s, t) in
@@ -226,11 +237,11 @@ fn spherical_rectangle(x: vec3f, o: vec3f, e_u: vec3f, e_v: vec3f) -> SphericalR
 // along that edge, uniform in h = y / √(xu² + z0² + y²). The (s, t) are kept EDGE_MARGIN inside
 // the square, so that a ray aimed at the point does not miss the light by its rounding.
 fn sample_spherical_rectangle(r: SphericalRectangle, u: vec2f) -> vec2f {
-    // sin and cos of au = u.x Ω + k = π + a.
-    let a = u.x * r.solid_angle + r.k_minus_pi;
-    let sc = sin_cos_accurate(abs(a));
-    let sin_au = -sign(a) * sc.x;
-    let cos_au = -sc.y;
+    // sin and cos of au = u.x Ω − (γ2 + γ3) (Ureña's u Ω + k, k = 2π − γ2 − γ3), by the angle
+    // difference formulas from those of u.x Ω.
+    let sc = sin_cos_accurate(u.x * r.solid_angle);
+    let sin_au = sc.x * r.cos_g23 - sc.y * r.sin_g23;
+    let cos_au = sc.y * r.cos_g23 + sc.x * r.sin_g23;
     // cu = sign(fu) / √(fu² + b0²) with fu = (cos au b0 − b1) / sin au, written without dividing
     // by sin au, which is 0 at the ends of the range.
     let f = cos_au * r.b0 - r.b1;
