@@ -24,7 +24,9 @@ pub fn check(features: &SceneFeatures, emitter_triangles: u32, settings: &Render
         return Ok(());
     }
     let refuse = |why: String| Err(Error::Options(format!("--control-variate: {why}")));
-    // What the scene rules out is said first: no other option helps there.
+    if effective_strategy(features, settings).0 == Strategy::MisLobes {
+        return refuse("works with the uniform, brdf, light and mis strategies, not mis-lobes".into());
+    }
     if features.emissive_texture {
         return refuse("needs lights of constant radiance; this scene has emission textures".into());
     }
@@ -37,9 +39,8 @@ pub fn check(features: &SceneFeatures, emitter_triangles: u32, settings: &Render
              {MAX_CONTROL_VARIATE_TRIANGLES}; this one has {emitter_triangles}"
         ));
     }
-    if effective_strategy(features, settings).0 == Strategy::MisLobes {
-        return refuse("works with the uniform, brdf, light and mis strategies, not mis-lobes".into());
-    }
+    // Cones last: the default (auto) takes them on round lights, and where the scene rules the
+    // control variate out anyway, that is what the user needs to hear.
     if settings.light_sampling == LightSampling::Cone
         || (settings.light_sampling == LightSampling::Auto && features.round_lights)
     {
