@@ -733,31 +733,37 @@ fn defaults_are_the_zoos_and_named_strategies_the_classic_ones() {
         let s: serde_json::Value = serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap();
         serde_json::json!({ "settings": s["settings"], "spp": s["samples_per_pixel"]["requested"] })
     };
-    let expect = |v: &serde_json::Value, light: u64, brdf: u64, heuristic: &str, selection: &str, spp: u64| {
-        let s = &v["settings"];
-        assert_eq!(
-            (
-                &s["strategy"],
-                &s["light_samples"],
-                &s["brdf_samples"],
-                &s["heuristic"],
-                &s["light_selection"],
-                &v["spp"]
-            ),
-            (
-                &serde_json::json!("mis"),
-                &serde_json::json!(light),
-                &serde_json::json!(brdf),
-                &serde_json::json!(heuristic),
-                &serde_json::json!(selection),
-                &serde_json::json!(spp)
-            ),
-            "{v}"
-        );
-    };
-    expect(&settings_of("defaults", &[]), 1, 1, "power", "tree", 32);
-    expect(&settings_of("named-mis", &["--strategy", "mis"]), 32, 32, "balance", "each", 1);
-    expect(&settings_of("defaults-bsdf", &["--light-selection", "bsdf", "--spp", "2"]), 1, 1, "power", "bsdf", 2);
+    let expect =
+        |v: &serde_json::Value, light: u64, brdf: u64, heuristic: &str, selection: &str, sampling: &str, spp: u64| {
+            let s = &v["settings"];
+            assert_eq!(
+                (
+                    &s["strategy"],
+                    &s["light_samples"],
+                    &s["brdf_samples"],
+                    &s["heuristic"],
+                    &s["light_selection"],
+                    &s["light_sampling"],
+                    &v["spp"]
+                ),
+                (
+                    &serde_json::json!("mis"),
+                    &serde_json::json!(light),
+                    &serde_json::json!(brdf),
+                    &serde_json::json!(heuristic),
+                    &serde_json::json!(selection),
+                    &serde_json::json!(sampling),
+                    &serde_json::json!(spp)
+                ),
+                "{v}"
+            );
+        };
+    expect(&settings_of("defaults", &[]), 1, 1, "power", "tree", "auto", 32);
+    expect(&settings_of("named-mis", &["--strategy", "mis"]), 32, 32, "balance", "each", "area", 1);
+    let bsdf = settings_of("defaults-bsdf", &["--light-selection", "bsdf", "--spp", "2"]);
+    expect(&bsdf, 1, 1, "power", "bsdf", "auto", 2);
+    let cone = settings_of("named-cone", &["--strategy", "mis", "--light-sampling", "cone"]);
+    expect(&cone, 32, 32, "balance", "each", "cone", 1);
 }
 
 /// A render split into ranges of camera samples and merged is the render of all of them: the
