@@ -231,7 +231,7 @@ fn direction_reach(d: DirectionSample, origin: vec3f) -> f32 {
 
 // How many of a plan's light samples may be cone samples, and so passes of the direction loop.
 fn cone_passes(plan: SamplePlan) -> u32 {
-    if !CONE_SAMPLING || !(frame.light_sampling == LIGHT_SAMPLING_CONE || frame.light_sampling == LIGHT_SAMPLING_AUTO) {
+    if !samples_cones() {
         return 0u;
     }
     return light_sample_requests(plan);

@@ -234,10 +234,15 @@ fn sample_area_light(index: u32, light: Light, x: vec3f, u_light: vec2f) -> Ligh
 // silhouette; the cone's density is constant over the light. Other lights keep area sampling;
 // without SHADOW_RAY_LIGHTS the kernel has none.
 fn cone_sampled(light: Light) -> bool {
-    if !CONE_SAMPLING || !(frame.light_sampling == LIGHT_SAMPLING_CONE || frame.light_sampling == LIGHT_SAMPLING_AUTO) {
+    if !samples_cones() {
         return false;
     }
     return !SHADOW_RAY_LIGHTS || (light.kind == LIGHT_AREA && light.round != 0u);
+}
+
+// Does the render sample round lights by their cones (LIGHT_SAMPLING_CONE or _AUTO)?
+fn samples_cones() -> bool {
+    return CONE_SAMPLING && (frame.light_sampling == LIGHT_SAMPLING_CONE || frame.light_sampling == LIGHT_SAMPLING_AUTO);
 }
 
 // The cone from x around the bounding sphere of `light`: its axis and 1 − cos θ_max, written as

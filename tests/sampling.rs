@@ -459,6 +459,12 @@ fn mesh_light(name: &str, mesh: &MeshData) -> GpuScene {
     upload(&load(&g, name))
 }
 
+/// A scene of one light of two triangles, `first` then `second`, of radiance 1.
+fn two_triangle_light(name: &str, first: [Vec3; 3], second: [Vec3; 3]) -> GpuScene {
+    let mesh = MeshData { positions: [first, second].concat(), normals: None, uvs: None, indices: (0..6).collect() };
+    mesh_light(name, &mesh)
+}
+
 /// Light scenes for area sampling: (name, light triangles, the receiving point).
 fn light_scene(name: &str, quads: &[(Vec3, Vec3, Vec3, Vec3, Vec3)]) -> GpuScene {
     let mut g = GltfBuilder::new();
@@ -501,11 +507,7 @@ fn area_light_sampling_matches_the_solid_angle_pdf() {
     // area samples map the unit square onto it linearly, and must cover it uniformly.
     let (a, b, c) = (Vec3::new(-0.6, -0.3, 1.0), Vec3::new(0.4, -0.3, 1.0), Vec3::new(0.7, 0.4, 1.0));
     let d = a + c - b;
-    let sheared = |name: &str, first: [Vec3; 3]| {
-        let mesh =
-            MeshData { positions: [first, [a, d, c]].concat(), normals: None, uvs: None, indices: (0..6).collect() };
-        leak(mesh_light(name, &mesh))
-    };
+    let sheared = |name: &str, first: [Vec3; 3]| leak(two_triangle_light(name, first, [a, d, c]));
     let corner_first = sheared("chi2-parallelogram-0", [b, a, c]);
     let corner_second = sheared("chi2-parallelogram-1", [c, b, a]);
     let corner_third = sheared("chi2-parallelogram-2", [a, c, b]);
@@ -517,11 +519,7 @@ fn area_light_sampling_matches_the_solid_angle_pdf() {
         (turn * Vec3::new(-0.4, -0.25, 0.0), turn * Vec3::new(0.4, -0.25, 0.0), turn * Vec3::new(0.4, 0.25, 0.0));
     let (r0, r1, r2) = (r0 + Vec3::Z, r1 + Vec3::Z, r2 + Vec3::Z);
     let r3 = r0 + r2 - r1;
-    let rectangle = |name: &str, first: [Vec3; 3]| {
-        let mesh =
-            MeshData { positions: [first, [r0, r2, r3]].concat(), normals: None, uvs: None, indices: (0..6).collect() };
-        leak(mesh_light(name, &mesh))
-    };
+    let rectangle = |name: &str, first: [Vec3; 3]| leak(two_triangle_light(name, first, [r0, r2, r3]));
     let rectangle_a = rectangle("chi2-rectangle-a", [r1, r2, r0]);
     let rectangle_b = rectangle("chi2-rectangle-b", [r2, r0, r1]);
     let rectangle_normal = (r2 - r1).cross(r0 - r1).normalize();

@@ -148,13 +148,15 @@ pub const MIN_SPHERICAL_SAMPLE_SOLID_ANGLE: f32 = 1e-2;
 pub fn rectangle_lights_seen_wide(scene: &Scene, bvh: &crate::bvh::Bvh) -> bool {
     scene.lights.iter().any(|light| {
         let crate::scene::LightKind::Area { triangles, double_sided, .. } = &light.kind else { return false };
-        if !area_light_shape(scene, triangles).rectangle {
+        // Only the two tests a rectangle needs (area_light_shape's convexity test is quadratic).
+        let corners = triangle_corners(scene, triangles);
+        if !parallelogram_corner(&corners).is_some_and(|k| is_rectangle(&corners[0], k)) {
             return false;
         }
-        let (centre, radius) = bounding_sphere(triangle_corners(scene, triangles).into_iter().flatten());
+        let (centre, radius) = bounding_sphere(corners.iter().flatten().copied());
         let area: f32 = triangles.iter().map(|&t| scene.triangles[t as usize].area()).sum();
         let reach = radius + (area / MIN_SPHERICAL_SAMPLE_SOLID_ANGLE).sqrt();
-        let [p0, p1, p2] = scene.triangles[triangles[0] as usize].p;
+        let [p0, p1, p2] = corners[0];
         let normal = (p1 - p0).cross(p2 - p0);
         let in_front = |t: &super::Triangle| *double_sided || t.p.iter().any(|&p| normal.dot(p - p0) > 0.0);
         bvh.any_triangle_near(&scene.triangles, centre, reach, |i, t| !triangles.contains(&i) && in_front(t))
