@@ -6,8 +6,7 @@
 // probability of a light is the product along its path, which light_tree_pmf retraces for the MIS
 // weight of a direction sample that finds the light.
 
-// `light_tree` (binding 26) is declared by the host (gpu/bindings.rs, wgsl_declarations): a
-// storage array, or a uniform array where the tree fits one.
+@group(0) @binding(26) var<storage, read> light_tree: array<LightTreeNode>;
 
 // The shading point and normal the tree chooses for, set by prepare_point_selection.
 var<private> tree_point: vec3f;
