@@ -6,7 +6,8 @@
 // probability of a light is the product along its path, which light_tree_pmf retraces for the MIS
 // weight of a direction sample that finds the light.
 
-@group(0) @binding(26) var<storage, read> light_tree: array<LightTreeNode>;
+// `light_tree` (binding 26) is declared by the host (gpu/bindings.rs, wgsl_declarations): a
+// storage array, or a uniform array where the tree fits one.
 
 // The shading point and normal the tree chooses for, set by prepare_point_selection.
 var<private> tree_point: vec3f;
@@ -118,6 +119,14 @@ fn tree_step(node: LightTreeNode) -> TreeStep {
     return TreeStep(first, second, first_child_share(first, second));
 }
 
+// The root node, at index 0. The index is read from frame (no tree has 2^32 - 1 nodes) rather
+// than written as 0: Mesa 22.3's lavapipe "inlines" a uniform array's loads at constant offsets
+// that steer branches, and that pass corrupts its heap while it compiles the kernel (valgrind:
+// invalid writes under vkCreateComputePipelines; glibc aborts in about 1 render of 30).
+fn light_tree_root() -> LightTreeNode {
+    return light_tree[u32(frame.light_tree_nodes == 0xffffffffu)];
+}
+
 // The probability of choosing any one directional light: each gets one share and the tree one
 // (pbrt-v4's pInfinite).
 fn directional_share() -> f32 {
@@ -142,7 +151,7 @@ fn select_light_from_tree(u_in: f32) -> SelectedLight {
     }
     u = remap_above(u, directional);
     var pmf = share;
-    var node = light_tree[0];
+    var node = light_tree_root();
     // A leaf lies at most MAX_LIGHT_TREE_DEPTH steps down (a light's path is 32 bits); the bound
     // keeps a malformed tree from looping.
     var depth = 0u;
@@ -179,7 +188,7 @@ fn light_tree_pmf(index: u32) -> f32 {
         return 0.0;
     }
     var pmf = directional_share();
-    var node = light_tree[0];
+    var node = light_tree_root();
     var depth = 0u;
     if !is_leaf(node) {
         loop {

@@ -587,6 +587,35 @@ fn a_wall_at_the_edge_of_the_scene_shadows_a_delta_light_beyond_it() {
     }
 }
 
+/// The light tree read from a uniform array (`UniformArrays::light_tree`, CPU adapters) renders
+/// the image it renders from storage, bit for bit where kernels round alike: the walk and its
+/// retraced probability read the same nodes. On the stress scene of many lights, MIS 1 + 1 with
+/// lights chosen by the tree.
+#[test]
+fn the_light_tree_renders_alike_from_a_uniform_array_and_from_storage() {
+    let cpu = renderer().gpu.adapter_info.device_type == wgpu::DeviceType::Cpu;
+    let scene = load(&veach_scenes::stress::stress_scene("many-lights").unwrap(), "tree-many-lights");
+    let camera = scene.camera(None).unwrap();
+    let settings = RenderSettings {
+        width: 32,
+        height: 24,
+        spp: 4,
+        strategy: Strategy::Mis,
+        light_samples: 1,
+        brdf_samples: 1,
+        light_selection: LightSelection::Tree,
+        seed: 5,
+        ..Default::default()
+    };
+    let storage =
+        render(&renderer().upload_scene_with(&scene, veach::render::BvhMemory::Storage).unwrap(), &settings, &camera);
+    let auto = render(&upload(&scene), &settings, &camera);
+    assert_eq!(storage.kernel.driver.uniform.light_tree, 0);
+    assert_eq!(auto.kernel.driver.uniform.light_tree > 0, cpu, "a CPU adapter reads the tree from a uniform array");
+    assert!(storage.sum.iter().any(|p| p[0] > 0.0), "the scene renders black");
+    assert_same_image("light-tree-uniform", "uniform tree against storage", &auto.sum, &storage.sum, settings.width);
+}
+
 /// With the control variate (shaders/control_variate.wgsl) every kernel still renders the same
 /// image, bit for bit: the generic kernel, the specialised megakernel and wavefront, over the BVH,
 /// the baked triangles and the emitters' list (baked, boxed), for every strategy that takes it. Its

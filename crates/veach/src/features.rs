@@ -150,6 +150,9 @@ pub struct UniformArrays {
     /// Binding 23's `triangle_lights` as a uniform array of this many vec4u, four triangles'
     /// lights each (0: storage).
     pub triangle_lights: u32,
+    /// Binding 26's `light_tree` as a uniform array of this many nodes (0: storage): the tree's
+    /// walk loads two nodes a step ("The light tree in a uniform array").
+    pub light_tree: u32,
 }
 
 impl UniformArrays {

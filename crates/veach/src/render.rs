@@ -364,6 +364,10 @@ impl Renderer {
                 &mut arrays.triangle_lights,
                 self.uniform_capacity::<[u32; 4]>(memory),
             ),
+            light_tree: pad_for_uniform(
+                &mut arrays.light_tree.nodes,
+                self.uniform_capacity::<layout::LightTreeNode>(memory),
+            ),
         };
         let device = &self.gpu.device;
         let max_binding = device.limits().max_storage_buffer_binding_size;
@@ -416,7 +420,7 @@ impl Renderer {
         let emitter_grid = emitter_grid
             .filter(|g| (g.words.len() as u64 * 4) <= max_binding)
             .map(|g| storage_buffer(device, "emitter grid", &g.words));
-        let light_tree = storage_buffer(device, "light tree", &arrays.light_tree.nodes);
+        let light_tree = scene_buffer(device, "light tree", &arrays.light_tree.nodes, also_uniform(uniform.light_tree));
         stats.gpu_scene_bytes = buffers
             .iter()
             .chain(texture_buffers.iter().flatten())

@@ -281,6 +281,7 @@ mod tests {
             emitter_tris: 1024,
             light_picks: 4096,
             triangle_lights: 1024,
+            light_tree: 2048,
         };
         // Two triangles with extreme corners: the largest f32, a subnormal, a negative zero.
         let vertices = [[f32::MAX, 0.0, -0.0], [1.0e-45, -1.0, 2.5], [0.1, -f32::MAX, 1.0]]

@@ -34,8 +34,9 @@ pub const CAMERA_FOOTPRINTS: u32 = 24;
 /// BVH kernels with the emitters' grid (`KernelPlan::emitter_grid`, `gpu::emitter_grid`): the grid
 /// (read-only storage).
 pub const EMITTER_GRID: u32 = 25;
-/// The light tree (`crate::light_tree`; read-only storage), in every kernel: SELECT_TREE is a
-/// setting of the frame, not of the kernel.
+/// The light tree (`crate::light_tree`; read-only storage, or uniform:
+/// `UniformArrays::light_tree`), in every kernel: SELECT_TREE is a setting of the frame, not of
+/// the kernel.
 pub const LIGHT_TREE: u32 = 26;
 /// Storage buffers a render kernel binds (scene + outputs): a device must allow this many per stage.
 pub const STORAGE_BUFFERS_NEEDED: u32 = 1 + SCENE_COUNT + 1 + OUTPUT_COUNT + TEXTURES_COUNT + 1;
@@ -92,7 +93,7 @@ impl DeclaredBindings {
 /// - the scene arrays (1..=7) are storage, or uniform arrays where they fit (lavapipe gathers
 ///   those; "Small BVHs in a uniform buffer"), and `triangle_lights` (23), read by
 ///   `triangle_light`, packs four triangles to a vec4u where uniform ("Triangle lights in a
-///   uniform array");
+///   uniform array"); the light tree (26) is uniform where it fits too;
 /// - the emitters' grid (25) is read by `emitter_grid_word`, which returns 0 in kernels without
 ///   one (EMITTER_LIST is then false and it is never read);
 /// - `BVH_STACK_SIZE` sizes the traversal's stack.
@@ -127,6 +128,10 @@ pub fn wgsl_declarations(d: &DeclaredBindings) -> String {
             line("fn triangle_light(tri: u32) -> u32 {\n    return triangle_lights[tri >> 2u][tri & 3u];\n}".into());
         }
     }
+    line(match d.uniform.light_tree {
+        0 => format!("@group(0) @binding({LIGHT_TREE}) var<storage, read> light_tree: array<LightTreeNode>;"),
+        n => format!("@group(0) @binding({LIGHT_TREE}) var<uniform> light_tree: array<LightTreeNode, {n}>;"),
+    });
     if d.emitter_grid {
         line(format!("@group(0) @binding({EMITTER_GRID}) var<storage, read> emitter_grid: array<u32>;"));
         line("fn emitter_grid_word(i: u32) -> u32 {\n    return emitter_grid[i];\n}".into());
@@ -191,7 +196,11 @@ pub fn layout_entries(extra: ExtraBindings) -> Vec<wgpu::BindGroupLayoutEntry> {
     } else {
         storage(TRIANGLE_LIGHTS, true)
     });
-    entries.push(storage(LIGHT_TREE, true));
+    entries.push(if uniform.light_tree > 0 {
+        entry(LIGHT_TREE, wgpu::BufferBindingType::Uniform)
+    } else {
+        storage(LIGHT_TREE, true)
+    });
     entries.extend((OUTPUT_FIRST..OUTPUT_FIRST + OUTPUT_COUNT).map(|b| storage(b, false)));
     if with_textures {
         entries.extend((TEXTURES_FIRST..TEXTURES_FIRST + TEXTURES_COUNT).map(|b| storage(b, true)));
