@@ -114,8 +114,8 @@ struct TreeStep {
 
 fn tree_step(node: LightTreeNode) -> TreeStep {
     let i = node.child_or_light & LIGHT_TREE_INDEX;
-    let first = light_tree[i];
-    let second = light_tree[i + 1u];
+    let first = light_tree_node(i);
+    let second = light_tree_node(i + 1u);
     return TreeStep(first, second, first_child_share(first, second));
 }
 
@@ -124,7 +124,7 @@ fn tree_step(node: LightTreeNode) -> TreeStep {
 // that steer branches, and that pass corrupts its heap while it compiles the kernel (valgrind:
 // invalid writes under vkCreateComputePipelines; glibc aborts in about 1 render of 30).
 fn light_tree_root() -> LightTreeNode {
-    return light_tree[u32(frame.light_tree_nodes == 0xffffffffu)];
+    return light_tree_node(u32(frame.light_tree_nodes == 0xffffffffu));
 }
 
 // The probability of choosing any one directional light: each gets one share and the tree one
@@ -145,7 +145,7 @@ fn select_light_from_tree(u_in: f32) -> SelectedLight {
     let directional = f32(frame.directional_lights) * share;
     if u < directional {
         let k = min(u32(u / share), frame.directional_lights - 1u);
-        let leaf = light_tree[frame.light_tree_nodes + k];
+        let leaf = light_tree_node(frame.light_tree_nodes + k);
         let start = f32(k) * share;
         return SelectedLight(DiscretePick(leaf.child_or_light & LIGHT_TREE_INDEX, clamp((u - start) / share, 0.0, ONE_MINUS_EPSILON)), share);
     }

@@ -128,10 +128,16 @@ pub fn wgsl_declarations(d: &DeclaredBindings) -> String {
             line("fn triangle_light(tri: u32) -> u32 {\n    return triangle_lights[tri >> 2u][tri & 3u];\n}".into());
         }
     }
-    line(match d.uniform.light_tree {
-        0 => format!("@group(0) @binding({LIGHT_TREE}) var<storage, read> light_tree: array<LightTreeNode>;"),
-        n => format!("@group(0) @binding({LIGHT_TREE}) var<uniform> light_tree: array<LightTreeNode, {n}>;"),
-    });
+    match d.uniform.light_tree {
+        0 => {
+            line(format!("@group(0) @binding({LIGHT_TREE}) var<storage, read> light_tree: array<vec4u>;"));
+            line("fn light_tree_node(i: u32) -> LightTreeNode {\n    let a = light_tree[2u * i];\n    let b = light_tree[2u * i + 1u];\n    return LightTreeNode(bitcast<vec3f>(a.xyz), bitcast<f32>(a.w), bitcast<f32>(b.x), b.y, b.z, b.w);\n}".into());
+        }
+        n => {
+            line(format!("@group(0) @binding({LIGHT_TREE}) var<uniform> light_tree: array<LightTreeNode, {n}>;"));
+            line("fn light_tree_node(i: u32) -> LightTreeNode {\n    return light_tree[i];\n}".into());
+        }
+    }
     if d.emitter_grid {
         line(format!("@group(0) @binding({EMITTER_GRID}) var<storage, read> emitter_grid: array<u32>;"));
         line("fn emitter_grid_word(i: u32) -> u32 {\n    return emitter_grid[i];\n}".into());
