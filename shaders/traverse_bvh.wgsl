@@ -120,15 +120,15 @@ fn leaf_count(position: u32) -> u32 {
     return (position >> 27u) & 0xfu;
 }
 
-// The ray's entry distances to node i's four children (RAY_INF where it misses one): traverse.wgsl's
+// The ray's entry distances to node n's four children (RAY_INF where it misses one): traverse.wgsl's
 // slab test on four boxes at once, decoded from their 8-bit cells (layout.wgsl's BvhNode). A bound
 // is origin + q * 2^e, exact in the product (q <= 255, e <= 120), so the host's outward rounding
 // holds whether or not the driver fuses the multiply-add.
-fn child_distances(i: u32, origin: vec3f, inv_dir: vec3f, t_max: f32) -> vec4f {
-    let grid = bvh_nodes[i].origin;
-    let exponents = bvh_nodes[i].exponents;
-    let low = bvh_nodes[i].low;
-    let high = bvh_nodes[i].high;
+fn child_distances(n: BvhNode, origin: vec3f, inv_dir: vec3f, t_max: f32) -> vec4f {
+    let grid = n.origin;
+    let exponents = n.exponents;
+    let low = n.low;
+    let high = n.high;
     let cell = vec3f(
         bitcast<f32>((exponents & 0xffu) << 23u),
         bitcast<f32>(((exponents >> 8u) & 0xffu) << 23u),
@@ -228,12 +228,12 @@ fn pop(s: ptr<function, TraversalStack>) -> u32 {
     return node;
 }
 
-// One step from inner node `node`, given the ray's entry distances to its children (RAY_INF where
+// One step from inner node `n`, given the ray's entry distances to its children (RAY_INF where
 // it misses one): the nearest child it enters, with the others it enters pushed on the stack,
 // farthest first; or, entering none, the position on top of the stack, or NO_NODE when that is
 // empty. Ordered traversal: the closest hit found in a near child culls the far ones.
-fn next_node(node: u32, t: vec4f, stack: ptr<function, TraversalStack>) -> u32 {
-    let children = bvh_nodes[node].children;
+fn next_node(n: BvhNode, t: vec4f, stack: ptr<function, TraversalStack>) -> u32 {
+    let children = n.children;
     let hit = select(vec4f(RAY_INF), t, children != vec4u(NO_NODE));
     // A sorting network of four (Knuth, TAOCP vol. 3, §5.3.4) on (distance, reference) pairs.
     let bits = bitcast<vec4u>(hit);
@@ -288,7 +288,8 @@ fn trace_closest(origin: vec3f, dir: vec3f, t_max: f32) -> Hit {
     loop {
         if position < LEAF_BIT {
             loop {
-                position = next_node(position, child_distances(position, origin, inv_dir, hit.t), &stack);
+                let n = bvh_node(position);
+                position = next_node(n, child_distances(n, origin, inv_dir, hit.t), &stack);
                 if position >= LEAF_BIT {
                     break;
                 }
@@ -332,11 +333,12 @@ fn trace_occluded(origin: vec3f, dir: vec3f, t_max: f32, skip: u32) -> bool {
     loop {
         if position < LEAF_BIT {
             loop {
-                let lights_01 = bvh_nodes[position].lights_01;
-                let lights_23 = bvh_nodes[position].lights_23;
+                let n = bvh_node(position);
+                let lights_01 = n.lights_01;
+                let lights_23 = n.lights_23;
                 let tags = vec4u(lights_01 & 0xffffu, lights_01 >> 16u, lights_23 & 0xffffu, lights_23 >> 16u);
-                let t = child_distances(position, origin, inv_dir, t_max);
-                position = next_node(position, select(t, vec4f(RAY_INF), tags == vec4u(skipped)), &stack);
+                let t = child_distances(n, origin, inv_dir, t_max);
+                position = next_node(n, select(t, vec4f(RAY_INF), tags == vec4u(skipped)), &stack);
                 if position >= LEAF_BIT {
                     break;
                 }

@@ -94,6 +94,9 @@ impl DeclaredBindings {
 ///   those; "Small BVHs in a uniform buffer"), and `triangle_lights` (23), read by
 ///   `triangle_light`, packs four triangles to a vec4u where uniform ("Triangle lights in a
 ///   uniform array"); the light tree (26) is uniform where it fits too;
+/// - `bvh_node` and `light_tree_node` read a node: where their arrays are storage, declared as
+///   `vec4u` words and read 16 bytes a load (Mesa 22.3 loads storage lane by lane, once per
+///   load: "BVH and light-tree nodes as vec4u loads");
 /// - the emitters' grid (25) is read by `emitter_grid_word`, which returns 0 in kernels without
 ///   one (EMITTER_LIST is then false and it is never read);
 /// - `BVH_STACK_SIZE` sizes the traversal's stack.
@@ -114,10 +117,21 @@ pub fn wgsl_declarations(d: &DeclaredBindings) -> String {
     for (k, ((name, element), n)) in SCENE_ARRAYS.iter().zip(d.uniform.lengths()).enumerate() {
         let binding = SCENE_FIRST + k as u32;
         line(match n {
+            // BVH nodes in storage as 16-byte words, a node read by four loads (`bvh_node`).
+            0 if *name == "bvh_nodes" => {
+                format!("@group(0) @binding({binding}) var<storage, read> {name}: array<vec4u>;")
+            }
             0 => format!("@group(0) @binding({binding}) var<storage, read> {name}: array<{element}>;"),
             n => format!("@group(0) @binding({binding}) var<uniform> {name}: array<{element}, {n}>;"),
         });
     }
+    line(match d.uniform.bvh_nodes {
+        0 => "fn bvh_node(i: u32) -> BvhNode {\n    let a = bvh_nodes[4u * i];\n    let b = bvh_nodes[4u * i + 1u];\n    \
+              let c = bvh_nodes[4u * i + 2u];\n    let d = bvh_nodes[4u * i + 3u];\n    \
+              return BvhNode(bitcast<vec3f>(a.xyz), a.w, b.xyz, b.w, c.xyz, c.w, d);\n}"
+            .into(),
+        _ => "fn bvh_node(i: u32) -> BvhNode {\n    return bvh_nodes[i];\n}".into(),
+    });
     match d.uniform.triangle_lights {
         0 => {
             line(format!("@group(0) @binding({TRIANGLE_LIGHTS}) var<storage, read> triangle_lights: array<u32>;"));
