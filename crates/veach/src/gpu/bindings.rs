@@ -114,24 +114,29 @@ pub fn wgsl_declarations(d: &DeclaredBindings) -> String {
         line(format!("@group(0) @binding({FRAME}) var<storage, read> frame: FrameParams;"));
         line("fn load_frame() {}".into());
     }
-    for (k, ((name, element), n)) in SCENE_ARRAYS.iter().zip(d.uniform.lengths()).enumerate() {
+    // The BVH's nodes (binding 1) are declared below with their reader.
+    for (k, ((name, element), n)) in SCENE_ARRAYS.iter().zip(d.uniform.lengths()).enumerate().skip(1) {
         let binding = SCENE_FIRST + k as u32;
         line(match n {
-            // BVH nodes in storage as 16-byte words, a node read by four loads (`bvh_node`).
-            0 if *name == "bvh_nodes" => {
-                format!("@group(0) @binding({binding}) var<storage, read> {name}: array<vec4u>;")
-            }
             0 => format!("@group(0) @binding({binding}) var<storage, read> {name}: array<{element}>;"),
             n => format!("@group(0) @binding({binding}) var<uniform> {name}: array<{element}, {n}>;"),
         });
     }
-    line(match d.uniform.bvh_nodes {
-        0 => "fn bvh_node(i: u32) -> BvhNode {\n    let a = bvh_nodes[4u * i];\n    let b = bvh_nodes[4u * i + 1u];\n    \
-              let c = bvh_nodes[4u * i + 2u];\n    let d = bvh_nodes[4u * i + 3u];\n    \
-              return BvhNode(bitcast<vec3f>(a.xyz), a.w, b.xyz, b.w, c.xyz, c.w, d);\n}"
-            .into(),
-        _ => "fn bvh_node(i: u32) -> BvhNode {\n    return bvh_nodes[i];\n}".into(),
-    });
+    match d.uniform.bvh_nodes {
+        0 => {
+            line(format!("@group(0) @binding({SCENE_FIRST}) var<storage, read> bvh_nodes: array<vec4u>;"));
+            line(
+                "fn bvh_node(i: u32) -> BvhNode {\n    let a = bvh_nodes[4u * i];\n    let b = bvh_nodes[4u * i + 1u];\n    \
+                 let c = bvh_nodes[4u * i + 2u];\n    let d = bvh_nodes[4u * i + 3u];\n    \
+                 return BvhNode(bitcast<vec3f>(a.xyz), a.w, b.xyz, b.w, c.xyz, c.w, d);\n}"
+                    .into(),
+            );
+        }
+        n => {
+            line(format!("@group(0) @binding({SCENE_FIRST}) var<uniform> bvh_nodes: array<BvhNode, {n}>;"));
+            line("fn bvh_node(i: u32) -> BvhNode {\n    return bvh_nodes[i];\n}".into());
+        }
+    }
     match d.uniform.triangle_lights {
         0 => {
             line(format!("@group(0) @binding({TRIANGLE_LIGHTS}) var<storage, read> triangle_lights: array<u32>;"));
@@ -145,7 +150,12 @@ pub fn wgsl_declarations(d: &DeclaredBindings) -> String {
     match d.uniform.light_tree {
         0 => {
             line(format!("@group(0) @binding({LIGHT_TREE}) var<storage, read> light_tree: array<vec4u>;"));
-            line("fn light_tree_node(i: u32) -> LightTreeNode {\n    let a = light_tree[2u * i];\n    let b = light_tree[2u * i + 1u];\n    return LightTreeNode(bitcast<vec3f>(a.xyz), bitcast<f32>(a.w), bitcast<f32>(b.x), b.y, b.z, b.w);\n}".into());
+            line(
+                "fn light_tree_node(i: u32) -> LightTreeNode {\n    let a = light_tree[2u * i];\n    \
+                 let b = light_tree[2u * i + 1u];\n    \
+                 return LightTreeNode(bitcast<vec3f>(a.xyz), bitcast<f32>(a.w), bitcast<f32>(b.x), b.y, b.z, b.w);\n}"
+                    .into(),
+            );
         }
         n => {
             line(format!("@group(0) @binding({LIGHT_TREE}) var<uniform> light_tree: array<LightTreeNode, {n}>;"));
