@@ -29,6 +29,8 @@ pub struct SceneUploadStats {
     /// BVH nodes on the GPU (inner nodes, each with its children's boxes).
     pub bvh_nodes: usize,
     pub bvh_sah_cost: f32,
+    /// Triangles in the BVH's leaves, more than the scene's where triangles were split.
+    pub bvh_triangle_references: usize,
     pub upload: Duration,
     pub gpu_scene_bytes: u64,
 }
@@ -302,6 +304,7 @@ impl Renderer {
             bvh_build: bvh.build_time,
             bvh_nodes: gpu_node_count(&bvh),
             bvh_sah_cost: bvh.sah_cost,
+            bvh_triangle_references: bvh.order.len(),
             ..Default::default()
         };
         let upload_start = Instant::now();

@@ -39,6 +39,8 @@ pub struct SceneCounts {
     pub materials: usize,
     pub bvh_nodes: usize,
     pub bvh_sah_cost: f32,
+    /// Triangles in the BVH's leaves: more than `triangles` where long thin ones were split.
+    pub bvh_triangle_references: usize,
     pub gpu_scene_bytes: u64,
 }
 
@@ -172,6 +174,7 @@ pub fn render_stats(
             materials: scene.materials.len(),
             bvh_nodes: setup.bvh_nodes,
             bvh_sah_cost: setup.bvh_sah_cost,
+            bvh_triangle_references: setup.bvh_triangle_references,
             gpu_scene_bytes: setup.gpu_scene_bytes,
         },
         features: gpu_scene.features,
