@@ -77,7 +77,7 @@ fn direction_sample_value(p: vec3f, d: DirectionSample, plan: SamplePlan, tri: u
     }
     var w = 1.0;
     if d.mis && HAS_AREA_LIGHTS && e.light != NO_LIGHT && light_count() > 0u && plan.n > 0u {
-        let p_light = area_light_pdf(e.light, p, triangle_positions(triangles[tri]), e.p);
+        let p_light = area_light_pdf(e.light, p, triangle_positions(triangle_at(tri)), e.p);
         if p_light > 0.0 {
             w = mis_weight(f32(plan.m), d.pdf, f32(plan.n), p_light);
         }

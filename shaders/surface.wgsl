@@ -28,7 +28,7 @@ fn triangle_normal(v: TrianglePositions) -> vec3f {
 }
 
 fn surface_at(hit: Hit, ray_dir: vec3f) -> SurfaceHit {
-    let t = triangles[hit.tri];
+    let t = triangle_at(hit.tri);
     let v = triangle_positions(t);
     let b0 = 1.0 - hit.b1 - hit.b2;
     let p = b0 * v.p0 + hit.b1 * v.p1 + hit.b2 * v.p2;
@@ -38,9 +38,9 @@ fn surface_at(hit: Hit, ray_dir: vec3f) -> SurfaceHit {
     if !front {
         ng = -ng;
     }
-    let n0 = decode_normal(vertices[t.v0].normal);
-    let n1 = decode_normal(vertices[t.v1].normal);
-    let n2 = decode_normal(vertices[t.v2].normal);
+    let n0 = decode_normal(vertex_at(t.v0).normal);
+    let n1 = decode_normal(vertex_at(t.v1).normal);
+    let n2 = decode_normal(vertex_at(t.v2).normal);
     let n_interp = b0 * n0 + hit.b1 * n1 + hit.b2 * n2;
     let len_sq = dot(n_interp, n_interp);
     var ns = select(ng, n_interp * inverseSqrt(len_sq), len_sq > 0.0);

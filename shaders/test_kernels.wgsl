@@ -50,7 +50,7 @@ fn traced_light_pdf(x: vec3f, wi: vec3f) -> f32 {
     if !hit.found || triangle_light(hit.tri) != test.light_index {
         return 0.0;
     }
-    let v = triangle_positions(triangles[hit.tri]);
+    let v = triangle_positions(triangle_at(hit.tri));
     let n_l = triangle_normal(v);
     let light = lights[test.light_index];
     if !emits_towards(light.double_sided != 0u, n_l, wi) {

@@ -68,7 +68,7 @@ fn texture_lookup(index: u32, uv: vec2f, srgb: bool) -> vec4f {
 
 // Both texture-coordinate sets at barycentrics (b1, b2) of a triangle.
 fn surface_uvs(tri: u32, b1: f32, b2: f32) -> vec4f {
-    let t = triangles[tri];
+    let t = triangle_at(tri);
     return (1.0 - b1 - b2) * vertex_uvs[t.v0] + b1 * vertex_uvs[t.v1] + b2 * vertex_uvs[t.v2];
 }
 
@@ -107,7 +107,7 @@ fn emitter_emission_texture(tri: u32, b1: f32, b2: f32) -> vec3f {
     if !HAS_EMISSIVE_TEXTURE {
         return vec3f(1.0);
     }
-    return emission_texture(materials[triangles[tri].material], surface_uvs(tri, b1, b2));
+    return emission_texture(materials[triangle_at(tri).material], surface_uvs(tri, b1, b2));
 }
 
 // The shading normal with the normal texture applied (glTF 2.0 §3.9.3: tangent-space normal,
@@ -119,7 +119,7 @@ fn mapped_normal(m: Material, uvs: vec4f, tri: u32, ns: vec3f) -> vec3f {
         return ns;
     }
     let r = m.normal_texture;
-    let t = triangles[tri];
+    let t = triangle_at(tri);
     let v = triangle_positions(t);
     let uv0 = texture_uv(r, vertex_uvs[t.v0]);
     let d1 = texture_uv(r, vertex_uvs[t.v1]) - uv0;

@@ -22,12 +22,12 @@ struct TrianglePositions {
 }
 
 fn triangle_positions(t: IndexedTriangle) -> TrianglePositions {
-    return TrianglePositions(vertices[t.v0].p, vertices[t.v1].p, vertices[t.v2].p);
+    return TrianglePositions(vertex_at(t.v0).p, vertex_at(t.v1).p, vertex_at(t.v2).p);
 }
 
-// The same for triangle i, loading only its vertex indices.
+// The same for triangle i.
 fn triangle_corners(i: u32) -> TrianglePositions {
-    return TrianglePositions(vertices[triangles[i].v0].p, vertices[triangles[i].v1].p, vertices[triangles[i].v2].p);
+    return triangle_positions(triangle_at(i));
 }
 
 // Precomputed per-ray constants of the watertight test.

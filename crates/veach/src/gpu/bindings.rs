@@ -82,6 +82,19 @@ impl DeclaredBindings {
     }
 }
 
+/// A scene array read through a function: a uniform array of its structs where it fits, or else
+/// storage declared as `vec4u` words, `words` of them an element, which `from_words` (over `w0`,
+/// `w1`, ...) makes into the struct.
+struct ArrayReader {
+    binding: u32,
+    name: &'static str,
+    element: &'static str,
+    uniform_len: u32,
+    reader: &'static str,
+    words: u32,
+    from_words: &'static str,
+}
+
 /// The WGSL declarations of the bindings a plan decides, from the same table as `layout_entries`:
 /// - `frame` (binding 0) is a read-only storage buffer, not a uniform: lavapipe (Mesa 22.3) folds
 ///   uniform values into the shader and compiles a new variant whenever they change, as row_start
@@ -94,9 +107,9 @@ impl DeclaredBindings {
 ///   those; "Small BVHs in a uniform buffer"), and `triangle_lights` (23), read by
 ///   `triangle_light`, packs four triangles to a vec4u where uniform ("Triangle lights in a
 ///   uniform array"); the light tree (26) is uniform where it fits too;
-/// - `bvh_node` and `light_tree_node` read a node: where their arrays are storage, declared as
-///   `vec4u` words and read 16 bytes a load (Mesa 22.3 loads storage lane by lane, once per
-///   load: "BVH and light-tree nodes as vec4u loads");
+/// - `bvh_node`, `vertex_at`, `triangle_at` and `light_tree_node` read an element: where their
+///   arrays are storage, declared as `vec4u` words and read 16 bytes a load (Mesa 22.3 loads
+///   storage lane by lane, once per load: "Scene arrays in storage as vec4u loads");
 /// - the emitters' grid (25) is read by `emitter_grid_word`, which returns 0 in kernels without
 ///   one (EMITTER_LIST is then false and it is never read);
 /// - `BVH_STACK_SIZE` sizes the traversal's stack.
@@ -114,29 +127,61 @@ pub fn wgsl_declarations(d: &DeclaredBindings) -> String {
         line(format!("@group(0) @binding({FRAME}) var<storage, read> frame: FrameParams;"));
         line("fn load_frame() {}".into());
     }
-    // The BVH's nodes (binding 1) are declared below with their reader.
-    for (k, ((name, element), n)) in SCENE_ARRAYS.iter().zip(d.uniform.lengths()).enumerate().skip(1) {
+    // The BVH's nodes, vertices and triangles (bindings 1-3) are declared below with their readers.
+    for (k, ((name, element), n)) in SCENE_ARRAYS.iter().zip(d.uniform.lengths()).enumerate().skip(3) {
         let binding = SCENE_FIRST + k as u32;
         line(match n {
             0 => format!("@group(0) @binding({binding}) var<storage, read> {name}: array<{element}>;"),
             n => format!("@group(0) @binding({binding}) var<uniform> {name}: array<{element}, {n}>;"),
         });
     }
-    match d.uniform.bvh_nodes {
-        0 => {
-            line(format!("@group(0) @binding({SCENE_FIRST}) var<storage, read> bvh_nodes: array<vec4u>;"));
-            line(
-                "fn bvh_node(i: u32) -> BvhNode {\n    let a = bvh_nodes[4u * i];\n    let b = bvh_nodes[4u * i + 1u];\n    \
-                 let c = bvh_nodes[4u * i + 2u];\n    let d = bvh_nodes[4u * i + 3u];\n    \
-                 return BvhNode(bitcast<vec3f>(a.xyz), a.w, b.xyz, b.w, c.xyz, c.w, d);\n}"
-                    .into(),
-            );
+    let mut array_with_reader = |array: ArrayReader| {
+        let ArrayReader { binding, name, element, uniform_len, reader, words, from_words } = array;
+        if uniform_len == 0 {
+            line(format!("@group(0) @binding({binding}) var<storage, read> {name}: array<vec4u>;"));
+            let loads: String = (0..words).map(|w| format!("    let w{w} = {name}[{words}u * i + {w}u];\n")).collect();
+            line(format!("fn {reader}(i: u32) -> {element} {{\n{loads}    return {from_words};\n}}"));
+        } else {
+            line(format!("@group(0) @binding({binding}) var<uniform> {name}: array<{element}, {uniform_len}>;"));
+            line(format!("fn {reader}(i: u32) -> {element} {{\n    return {name}[i];\n}}"));
         }
-        n => {
-            line(format!("@group(0) @binding({SCENE_FIRST}) var<uniform> bvh_nodes: array<BvhNode, {n}>;"));
-            line("fn bvh_node(i: u32) -> BvhNode {\n    return bvh_nodes[i];\n}".into());
-        }
-    }
+    };
+    array_with_reader(ArrayReader {
+        binding: SCENE_FIRST,
+        name: "bvh_nodes",
+        element: "BvhNode",
+        uniform_len: d.uniform.bvh_nodes,
+        reader: "bvh_node",
+        words: 4,
+        from_words: "BvhNode(bitcast<vec3f>(w0.xyz), w0.w, w1.xyz, w1.w, w2.xyz, w2.w, w3)",
+    });
+    array_with_reader(ArrayReader {
+        binding: SCENE_FIRST + 1,
+        name: "vertices",
+        element: "Vertex",
+        uniform_len: d.uniform.vertices,
+        reader: "vertex_at",
+        words: 1,
+        from_words: "Vertex(bitcast<vec3f>(w0.xyz), w0.w)",
+    });
+    array_with_reader(ArrayReader {
+        binding: SCENE_FIRST + 2,
+        name: "triangles",
+        element: "IndexedTriangle",
+        uniform_len: d.uniform.triangles,
+        reader: "triangle_at",
+        words: 1,
+        from_words: "IndexedTriangle(w0.x, w0.y, w0.z, w0.w)",
+    });
+    array_with_reader(ArrayReader {
+        binding: LIGHT_TREE,
+        name: "light_tree",
+        element: "LightTreeNode",
+        uniform_len: d.uniform.light_tree,
+        reader: "light_tree_node",
+        words: 2,
+        from_words: "LightTreeNode(bitcast<vec3f>(w0.xyz), bitcast<f32>(w0.w), bitcast<f32>(w1.x), w1.y, w1.z, w1.w)",
+    });
     match d.uniform.triangle_lights {
         0 => {
             line(format!("@group(0) @binding({TRIANGLE_LIGHTS}) var<storage, read> triangle_lights: array<u32>;"));
@@ -145,21 +190,6 @@ pub fn wgsl_declarations(d: &DeclaredBindings) -> String {
         n => {
             line(format!("@group(0) @binding({TRIANGLE_LIGHTS}) var<uniform> triangle_lights: array<vec4u, {n}>;"));
             line("fn triangle_light(tri: u32) -> u32 {\n    return triangle_lights[tri >> 2u][tri & 3u];\n}".into());
-        }
-    }
-    match d.uniform.light_tree {
-        0 => {
-            line(format!("@group(0) @binding({LIGHT_TREE}) var<storage, read> light_tree: array<vec4u>;"));
-            line(
-                "fn light_tree_node(i: u32) -> LightTreeNode {\n    let a = light_tree[2u * i];\n    \
-                 let b = light_tree[2u * i + 1u];\n    \
-                 return LightTreeNode(bitcast<vec3f>(a.xyz), bitcast<f32>(a.w), bitcast<f32>(b.x), b.y, b.z, b.w);\n}"
-                    .into(),
-            );
-        }
-        n => {
-            line(format!("@group(0) @binding({LIGHT_TREE}) var<uniform> light_tree: array<LightTreeNode, {n}>;"));
-            line("fn light_tree_node(i: u32) -> LightTreeNode {\n    return light_tree[i];\n}".into());
         }
     }
     if d.emitter_grid {
