@@ -237,12 +237,16 @@ def main():
         # An unbiased estimate's relMSE falls as 1/spp. Where veach's does not fall at all, its
         # images are not the scene's (a throwaway build left in target/release once timed a kernel
         # that drew nothing, at an efficiency of 0.00x): say so rather than print tables of it.
+        # The lowest relMSE past the first count is compared, not the last: on a scene of heavy
+        # tails one firefly can lift a single count's (zoo lights-100, seed 1: 0.78, 0.33, 0.14,
+        # 0.057, then 0.20 at 16 spp).
         if len(budgets) > 1 and budgets[-1] >= 8:
-            first, last = medians("veach", budgets[0])[1], medians("veach", budgets[-1])[1]
-            if not last < 0.25 * first:
-                broken.append(f"{name}: veach's relMSE goes from {first:.3e} at {budgets[0]} spp to {last:.3e} at "
-                              f"{budgets[-1]}; it does not converge to the reference: is {args.veach} the build "
-                              f"you meant to measure?")
+            first = medians("veach", budgets[0])[1]
+            lowest = min(medians("veach", spp)[1] for spp in budgets[1:])
+            if not lowest < 0.25 * first:
+                broken.append(f"{name}: veach's relMSE goes from {first:.3e} at {budgets[0]} spp to at best "
+                              f"{lowest:.3e} by {budgets[-1]}; it does not converge to the reference: is "
+                              f"{args.veach} the build you meant to measure?")
 
         for sampler in samplers:
             for spp in budgets:

@@ -1,0 +1,65 @@
+#!/usr/bin/env python3
+"""One line per scene from bench/peer_mitsuba.py's peer.csv: veach against Mitsuba's best sampler.
+
+    python3 bench/peer_summary.py target/peer-zoo/peer.csv [--spp 16]
+
+At the given sample count (default: the largest in the file), for each scene: veach's median
+render time and relMSE against its own reference, and the Mitsuba sampler with the highest
+efficiency against Mitsuba's own reference (so that neither renderer is charged for the two
+exports' differences), its time and relMSE, and the efficiency ratio veach / Mitsuba, where
+efficiency = 1 / (relMSE x seconds). Ends with the geometric mean and the worst ratio, and how
+many scenes are below 1x. Prints Markdown (docs/performance.md holds the measured tables).
+"""
+
+import argparse
+import csv
+import math
+import statistics
+from collections import defaultdict
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("csv")
+    ap.add_argument("--spp", type=int, default=None)
+    args = ap.parse_args()
+
+    rows = defaultdict(list)  # (scene, renderer, spp) -> [(seconds, relmse, relmse_own)]
+    with open(args.csv) as f:
+        for r in csv.DictReader(f):
+            key = (r["scene"], r["renderer"], int(r["spp"]))
+            rows[key].append((float(r["seconds"]), float(r["relmse"]), float(r["relmse_own_reference"])))
+    spp = args.spp or max(k[2] for k in rows)
+    scenes = sorted({k[0] for k in rows if k[2] == spp})
+
+    def median_of(scene, renderer, column):
+        return statistics.median(v[column] for v in rows[(scene, renderer, spp)])
+
+    print(f"At {spp} spp; Mitsuba with its best sampler per scene, each renderer against its own reference.\n")
+    print("| scene | veach s | veach relMSE | Mitsuba s | Mitsuba relMSE | Mitsuba sampler | veach / Mitsuba |")
+    print("|---|---|---|---|---|---|---|")
+    ratios = []
+    for scene in scenes:
+        if (scene, "veach", spp) not in rows:
+            continue
+        vt, vr = median_of(scene, "veach", 0), median_of(scene, "veach", 1)
+        best = None
+        for renderer in sorted({k[1] for k in rows if k[0] == scene and k[1].startswith("mitsuba-")}):
+            mt, mr = median_of(scene, renderer, 0), median_of(scene, renderer, 2)
+            if mr > 0 and (best is None or mt * mr < best[0] * best[1]):
+                best = (mt, mr, renderer.removeprefix("mitsuba-"))
+        if best is None or vr <= 0:
+            continue
+        ratio = (best[0] * best[1]) / (vt * vr)
+        ratios.append((ratio, scene))
+        print(f"| {scene} | {vt:.3f} | {vr:.2e} | {best[0]:.3f} | {best[1]:.2e} | {best[2]} | {ratio:.2f}× |")
+    if ratios:
+        mean = math.exp(sum(math.log(r) for r, _ in ratios) / len(ratios))
+        worst = min(ratios)
+        below = sum(r < 1.0 for r, _ in ratios)
+        print(f"| **geometric mean ({len(ratios)} scenes)** | | | | | | **{mean:.2f}×** |")
+        print(f"\nWorst: {worst[1]} {worst[0]:.2f}×; below 1×: {below} of {len(ratios)}.")
+
+
+if __name__ == "__main__":
+    main()
