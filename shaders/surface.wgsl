@@ -29,7 +29,11 @@ fn triangle_normal(v: TrianglePositions) -> vec3f {
 
 fn surface_at(hit: Hit, ray_dir: vec3f) -> SurfaceHit {
     let t = triangle_at(hit.tri);
-    let v = triangle_positions(t);
+    // Each corner read once, for its position and its normal.
+    let c0 = vertex_at(t.v0);
+    let c1 = vertex_at(t.v1);
+    let c2 = vertex_at(t.v2);
+    let v = TrianglePositions(c0.p, c1.p, c2.p);
     let b0 = 1.0 - hit.b1 - hit.b2;
     let p = b0 * v.p0 + hit.b1 * v.p1 + hit.b2 * v.p2;
     var ng = triangle_normal(v);
@@ -38,9 +42,9 @@ fn surface_at(hit: Hit, ray_dir: vec3f) -> SurfaceHit {
     if !front {
         ng = -ng;
     }
-    let n0 = decode_normal(vertex_at(t.v0).normal);
-    let n1 = decode_normal(vertex_at(t.v1).normal);
-    let n2 = decode_normal(vertex_at(t.v2).normal);
+    let n0 = decode_normal(c0.normal);
+    let n1 = decode_normal(c1.normal);
+    let n2 = decode_normal(c2.normal);
     let n_interp = b0 * n0 + hit.b1 * n1 + hit.b2 * n2;
     let len_sq = dot(n_interp, n_interp);
     var ns = select(ng, n_interp * inverseSqrt(len_sq), len_sq > 0.0);

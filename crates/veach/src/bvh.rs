@@ -67,8 +67,7 @@ fn build_bvh_with(triangles: &[Triangle], params: BvhBuildParams) -> Bvh {
         })
         .collect();
     let boxes: Vec<Aabb> = tris.iter().map(|t| t.aabb()).collect();
-    let whole = flatten(build_over_boxes(&boxes, (0..tris.len() as u32).collect(), false, params));
-    let mut bvh = whole;
+    let mut bvh = flatten(build_over_boxes(&boxes, (0..tris.len() as u32).collect(), false, params));
     if bvh.sah_cost > SPLIT_TRY_COST && SPLIT_PIECES * tris.len() <= MAX_REFERENCES {
         let (split_boxes, split_indices) = split_triangle_boxes(&tris, boxes);
         let split = flatten(build_over_boxes(&split_boxes, split_indices, true, params));
@@ -208,6 +207,7 @@ fn sah_cost(nodes: &[BvhNode]) -> f32 {
 mod tests {
     use super::*;
     use glam::Vec3;
+    use veach_scenes::SplitMix64;
 
     fn grid(n: usize) -> Vec<Triangle> {
         let mut out = Vec::new();
@@ -254,11 +254,8 @@ mod tests {
 
     /// A dense field of grass blades (long thin triangles, leaning at random) in a 2 m square.
     fn grass(blades: usize) -> Vec<Triangle> {
-        let mut state = 0x9e3779b97f4a7c15u64;
-        let mut random = move || {
-            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (state >> 40) as f32 / (1u64 << 24) as f32
-        };
+        let mut rng = SplitMix64(1);
+        let mut random = move || rng.next_f32();
         (0..blades)
             .map(|_| {
                 let root = Vec3::new(2.0 * random(), 0.0, 2.0 * random());
@@ -270,7 +267,7 @@ mod tests {
             .collect()
     }
 
-    /// The closest hit along a ray, by Möller–Trumbore: (distance, triangle).
+    /// The distance along a ray to its hit on `tri`, by Möller–Trumbore.
     fn hit(tri: &Triangle, origin: Vec3, dir: Vec3) -> Option<f32> {
         let (e1, e2) = (tri.p[1] - tri.p[0], tri.p[2] - tri.p[0]);
         let p = dir.cross(e2);
@@ -329,11 +326,8 @@ mod tests {
             seen[t as usize] = true;
         }
         assert!(seen.iter().all(|&s| s), "a blade is in no leaf");
-        let mut state = 12345u32;
-        let mut random = move || {
-            state = state.wrapping_mul(747796405).wrapping_add(2891336453);
-            (state >> 8) as f32 / (1u32 << 24) as f32
-        };
+        let mut rng = SplitMix64(2);
+        let mut random = move || rng.next_f32();
         let mut hits = 0;
         for _ in 0..2000 {
             // From above the field towards a point in it, and grazing through it.

@@ -146,33 +146,17 @@ pub fn wgsl_declarations(d: &DeclaredBindings) -> String {
             line(format!("fn {reader}(i: u32) -> {element} {{\n    return {name}[i];\n}}"));
         }
     };
-    array_with_reader(ArrayReader {
-        binding: SCENE_FIRST,
-        name: "bvh_nodes",
-        element: "BvhNode",
-        uniform_len: d.uniform.bvh_nodes,
-        reader: "bvh_node",
-        words: 4,
-        from_words: "BvhNode(bitcast<vec3f>(w0.xyz), w0.w, w1.xyz, w1.w, w2.xyz, w2.w, w3)",
-    });
-    array_with_reader(ArrayReader {
-        binding: SCENE_FIRST + 1,
-        name: "vertices",
-        element: "Vertex",
-        uniform_len: d.uniform.vertices,
-        reader: "vertex_at",
-        words: 1,
-        from_words: "Vertex(bitcast<vec3f>(w0.xyz), w0.w)",
-    });
-    array_with_reader(ArrayReader {
-        binding: SCENE_FIRST + 2,
-        name: "triangles",
-        element: "IndexedTriangle",
-        uniform_len: d.uniform.triangles,
-        reader: "triangle_at",
-        words: 1,
-        from_words: "IndexedTriangle(w0.x, w0.y, w0.z, w0.w)",
-    });
+    // Bindings 1-3: (uniform length, reader, words an element, the element from its words).
+    let readers = [
+        (d.uniform.bvh_nodes, "bvh_node", 4, "BvhNode(bitcast<vec3f>(w0.xyz), w0.w, w1.xyz, w1.w, w2.xyz, w2.w, w3)"),
+        (d.uniform.vertices, "vertex_at", 1, "Vertex(bitcast<vec3f>(w0.xyz), w0.w)"),
+        (d.uniform.triangles, "triangle_at", 1, "IndexedTriangle(w0.x, w0.y, w0.z, w0.w)"),
+    ];
+    for (k, (uniform_len, reader, words, from_words)) in readers.into_iter().enumerate() {
+        let (name, element) = SCENE_ARRAYS[k];
+        let binding = SCENE_FIRST + k as u32;
+        array_with_reader(ArrayReader { binding, name, element, uniform_len, reader, words, from_words });
+    }
     array_with_reader(ArrayReader {
         binding: LIGHT_TREE,
         name: "light_tree",
