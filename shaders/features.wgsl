@@ -1,6 +1,7 @@
 // features.wgsl: what a kernel is specialised for. Each is a pipeline-overridable constant, set
 // from the scene's features and the render settings (crates/veach/src/features.rs); the
-// defaults make the generic kernel, which renders any scene and reads the strategy at run time.
+// defaults make the generic kernel, which renders any scene and reads the strategy and the light
+// selection at run time.
 // A branch on a false constant is dead code that the driver's compiler removes.
 
 // 0..4: the strategy is fixed (STRATEGY_*); 255: read frame.strategy.
@@ -15,8 +16,8 @@ override HAS_GLOSSY: bool = true;
 override HAS_MIRRORS: bool = true;
 // The contribution images may be written.
 override HAS_AOVS: bool = true;
-// Lights may be chosen per shading point (frame.light_selection == SELECT_BSDF).
-override POINT_LIGHT_SELECTION: bool = true;
+// 0..4: the light selection is fixed (SELECT_*); 255: read frame.light_selection.
+override LIGHT_SELECTION: u32 = 255u;
 // The scene has exactly one light: every light index is 0, read as a constant (lights.wgsl's
 // light_at), where lavapipe gathers a record at a run-time index lane by lane.
 override SINGLE_LIGHT: bool = false;
@@ -81,4 +82,13 @@ fn active_strategy() -> u32 {
         return STRATEGY;
     }
     return frame.strategy;
+}
+
+const SELECTION_FROM_FRAME: u32 = 255u;
+
+fn active_light_selection() -> u32 {
+    if LIGHT_SELECTION != SELECTION_FROM_FRAME {
+        return LIGHT_SELECTION;
+    }
+    return frame.light_selection;
 }

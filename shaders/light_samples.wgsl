@@ -97,7 +97,7 @@ fn light_sample_requests(plan: SamplePlan) -> u32 {
     if light_count() == 0u || plan.n == 0u {
         return 0u;
     }
-    return select(plan.n, plan.n * light_count(), frame.light_selection == SELECT_EACH);
+    return select(plan.n, plan.n * light_count(), active_light_selection() == SELECT_EACH);
 }
 
 // The stream's dimension where a camera sample's light-sample requests begin, with the stream
@@ -120,7 +120,7 @@ struct LightChoice {
 
 fn choose_light(plan: SamplePlan, k: u32, stream: ptr<function, SampleStream>) -> LightChoice {
     var ch = LightChoice(k / plan.n, 1.0, sample_2d(stream));
-    if frame.light_selection != SELECT_EACH {
+    if active_light_selection() != SELECT_EACH {
         let chosen = select_light_with_pmf(ch.u.x);
         ch.index = chosen.pick.index;
         ch.u.x = chosen.pick.u;

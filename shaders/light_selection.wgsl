@@ -17,7 +17,7 @@ var<private> point_selection: array<f32, MAX_POINT_SELECTION_LIGHTS>;
 const POWER_SHARE: f32 = 0.25;
 
 fn uses_point_selection() -> bool {
-    return POINT_LIGHT_SELECTION && frame.light_selection == SELECT_BSDF && light_count() > 1u &&
+    return active_light_selection() == SELECT_BSDF && light_count() > 1u &&
         light_count() <= MAX_POINT_SELECTION_LIGHTS;
 }
 
@@ -117,7 +117,7 @@ fn light_selection_pdf(index: u32) -> f32 {
     if uses_light_tree() {
         return light_tree_pmf(index);
     }
-    switch frame.light_selection {
+    switch active_light_selection() {
         case SELECT_UNIFORM: {
             return 1.0 / f32(light_count());
         }
@@ -194,7 +194,7 @@ fn select_light(u: f32) -> DiscretePick {
     if uses_light_tree() {
         return select_light_from_tree(u).pick;
     }
-    if frame.light_selection == SELECT_POWER || frame.light_selection == SELECT_BSDF {
+    if active_light_selection() == SELECT_POWER || active_light_selection() == SELECT_BSDF {
         return select_light_by_power(u);
     }
     let b = alias_bucket(u, light_count());

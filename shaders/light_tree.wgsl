@@ -14,7 +14,7 @@ var<private> tree_point: vec3f;
 var<private> tree_normal: vec3f;
 
 fn uses_light_tree() -> bool {
-    return POINT_LIGHT_SELECTION && frame.light_selection == SELECT_TREE && !SINGLE_LIGHT;
+    return active_light_selection() == SELECT_TREE && !SINGLE_LIGHT;
 }
 
 // The deepest leaf (light_tree.rs, MAX_DEPTH).

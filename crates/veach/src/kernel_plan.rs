@@ -21,6 +21,10 @@ use std::sync::Arc;
 pub struct KernelPlan {
     /// A fixed strategy, or None to read it at run time.
     pub strategy: Option<Strategy>,
+    /// A fixed light selection, or None to read it at run time. Fixed, the other selections'
+    /// code is left out, which Mesa 22.3 would run under a mask (multi-light zoo scenes
+    /// 0.95-0.98x the render time; docs/performance.md, "The light selection in the kernel").
+    pub light_selection: Option<LightSelection>,
     pub lights: LightKinds,
     pub lobes: Lobes,
     pub techniques: LightTechniques,
@@ -67,8 +71,6 @@ pub struct LightTechniques {
     pub parallelograms: bool,
     /// Picking a light's triangle by area: false where `parallelograms` takes every area light.
     pub triangle_picks: bool,
-    /// Choosing lights per shading point (`LightSelection::per_point`).
-    pub point_selection: bool,
     /// The unshadowed diffuse light as a control variate (`RenderSettings::control_variate`).
     pub control_variate: bool,
 }
@@ -190,6 +192,7 @@ impl KernelPlan {
     pub fn generic() -> KernelPlan {
         KernelPlan {
             strategy: None,
+            light_selection: None,
             lights: LightKinds { area: true, delta: true, single: false },
             lobes: Lobes { glossy: true, mirrors: true },
             techniques: LightTechniques {
@@ -199,7 +202,6 @@ impl KernelPlan {
                 shadow_rays: true,
                 parallelograms: true,
                 triangle_picks: true,
-                point_selection: true,
                 control_variate: true,
             },
             textures: TextureLookups { module: true, kinds: [true; 4] },
@@ -248,6 +250,12 @@ impl KernelPlan {
         let strategy = effective_strategy(features, settings).0;
         KernelPlan {
             strategy: Some(strategy),
+            // A strategy without light samples never chooses a light: uniform, which has no code.
+            light_selection: Some(if strategy.samples_lights() {
+                settings.light_selection
+            } else {
+                LightSelection::Uniform
+            }),
             lights: LightKinds {
                 area: features.area_lights,
                 delta: features.delta_lights(),
@@ -261,9 +269,6 @@ impl KernelPlan {
                 shadow_rays: !(features.all_lights_round && settings.light_sampling.cones()),
                 parallelograms,
                 triangle_picks: !(parallelograms && features.all_area_lights_parallelograms),
-                point_selection: !features.single_light
-                    && settings.light_selection.per_point()
-                    && strategy.samples_lights(),
                 control_variate: settings.control_variate,
             },
             textures: TextureLookups {
@@ -349,7 +354,7 @@ impl KernelPlan {
         // table of its own point; the light tree's needs only the point and normal, which the held
         // ray keeps).
         self.driver.deferred_direction_rays = self.strategy.is_some_and(|s| s != Strategy::Light)
-            && !(self.techniques.point_selection && settings.light_selection == LightSelection::Bsdf);
+            && (self.lights.single || self.light_selection != Some(LightSelection::Bsdf));
         self.driver.camera_list = false;
         Some((lists, words))
     }
@@ -378,6 +383,7 @@ impl KernelPlan {
         let (t, d) = (&self.techniques, &self.driver);
         let mut constants = vec![
             ("STRATEGY", strategy),
+            ("LIGHT_SELECTION", self.light_selection.map_or(255.0, |s| s.gpu_code() as f64)),
             ("HAS_AREA_LIGHTS", flag(self.lights.area)),
             ("HAS_DELTA_LIGHTS", flag(self.lights.delta)),
             ("HAS_GLOSSY", flag(self.lobes.glossy)),
@@ -389,7 +395,6 @@ impl KernelPlan {
             ("SHADOW_RAY_LIGHTS", flag(t.shadow_rays)),
             ("PARALLELOGRAM_LIGHTS", flag(t.parallelograms)),
             ("TRIANGLE_PICKS", flag(t.triangle_picks)),
-            ("POINT_LIGHT_SELECTION", flag(t.point_selection)),
             ("SINGLE_LIGHT", flag(self.lights.single)),
             ("EMITTER_LIST", flag(d.emitter_grid || d.baked.as_ref().is_some_and(|b| b.emitter_list()))),
             ("CAMERA_LIST", flag(d.camera_list)),

@@ -15,7 +15,7 @@ use crate::kernel_plan::{KernelPlan, runs_branches_masked};
 use crate::scene::light_shape::rectangle_lights_seen_wide;
 
 use crate::scene::{Camera, LightKind, Scene};
-use crate::settings::{Heuristic, LightSampling, LightSelection, RenderSettings, Sampler, Strategy};
+use crate::settings::{Heuristic, LightSampling, RenderSettings, Sampler, Strategy};
 use crate::shaders;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
@@ -539,13 +539,7 @@ impl Renderer {
                 Heuristic::Balance => layout::HEURISTIC_BALANCE,
                 Heuristic::Power => layout::HEURISTIC_POWER,
             },
-            light_selection: match s.light_selection {
-                LightSelection::Each => layout::SELECT_EACH,
-                LightSelection::Uniform => layout::SELECT_UNIFORM,
-                LightSelection::Power => layout::SELECT_POWER,
-                LightSelection::Bsdf => layout::SELECT_BSDF,
-                LightSelection::Tree => layout::SELECT_TREE,
-            },
+            light_selection: s.light_selection.gpu_code(),
             light_count: scene.light_count,
             light_tree_nodes: scene.light_tree_nodes,
             directional_lights: scene.directional_lights,

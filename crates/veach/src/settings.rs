@@ -21,7 +21,7 @@ pub enum Heuristic {
     Power,
 }
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum LightSelection {
     /// Every light gets the light samples (the estimator sums over lights).
     Each,
@@ -130,6 +130,19 @@ impl LightSelection {
     /// sample's MIS weight then needs its own point's selection (no deferred rays).
     pub fn per_point(self) -> bool {
         matches!(self, LightSelection::Bsdf | LightSelection::Tree)
+    }
+
+    /// Its code in the frame's parameters and the kernels' LIGHT_SELECTION (SELECT_* in
+    /// shaders/layout.wgsl).
+    pub fn gpu_code(self) -> u32 {
+        use crate::gpu::layout;
+        match self {
+            LightSelection::Each => layout::SELECT_EACH,
+            LightSelection::Uniform => layout::SELECT_UNIFORM,
+            LightSelection::Power => layout::SELECT_POWER,
+            LightSelection::Bsdf => layout::SELECT_BSDF,
+            LightSelection::Tree => layout::SELECT_TREE,
+        }
     }
 }
 
