@@ -6,6 +6,9 @@ Prints a line per scene and per path (the zoo's geometric mean counts the other 
 and writes CSV. docs/performance.md, "Driver-specific paths on the zoo", is its output.
 
     scripts/driver-paths.py ZOO_DIR OUT.csv [--runs 5] [--spp 16] [--size 256]
+
+It runs on the system's Vulkan driver; VK_ICD_FILENAMES picks another (Mesa 25's lavapipe for the
+last three switches, which change nothing on Mesa 22.3).
 """
 import argparse, glob, json, math, os, shutil, statistics, subprocess, sys, tempfile
 
@@ -26,6 +29,13 @@ SWITCHES = {
                        f"d.camera_list = {OFF('NO_CAMERA_LIST')} && at_eye &&"),
     "NO_FOOTPRINTS": ("crates/veach/src/kernel_plan.rs", "let apply = runs_of_samples",
                       f"let apply = {OFF('NO_FOOTPRINTS')} && runs_of_samples"),
+    # The paths for drivers that branch around code no lane runs (Mesa 25): run with Mesa 25.
+    "NO_EMITTER_GRID": ("crates/veach/src/render.rs", "let grid_pays_here = self.gpu.is_cpu() && !masked;",
+                        f"let grid_pays_here = {OFF('NO_EMITTER_GRID')} && self.gpu.is_cpu() && !masked;"),
+    "NO_BAKED_BOXES": ("crates/veach/src/render.rs", "let group_nodes = if branches {",
+                       f"let group_nodes = if branches && {OFF('NO_BAKED_BOXES')} {{"),
+    "NO_EMITTER_LIST": ("crates/veach/src/render.rs", "baked.set_emitter_list(branches);",
+                        f"baked.set_emitter_list(branches && {OFF('NO_EMITTER_LIST')});"),
 }
 
 def build(root):
