@@ -194,7 +194,8 @@ fn select_light(u: f32) -> DiscretePick {
     if uses_light_tree() {
         return select_light_from_tree(u).pick;
     }
-    if active_light_selection() == SELECT_POWER || active_light_selection() == SELECT_BSDF {
+    let selection = active_light_selection();
+    if selection == SELECT_POWER || selection == SELECT_BSDF {
         return select_light_by_power(u);
     }
     let b = alias_bucket(u, light_count());

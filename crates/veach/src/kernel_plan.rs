@@ -372,14 +372,8 @@ impl KernelPlan {
     /// The values of the WGSL `override` constants (`shaders/features.wgsl`).
     pub fn constants(&self) -> Vec<(&'static str, f64)> {
         let flag = |b: bool| if b { 1.0 } else { 0.0 };
-        let strategy = match self.strategy {
-            None => 255.0,
-            Some(Strategy::Uniform) => crate::gpu::layout::STRATEGY_UNIFORM as f64,
-            Some(Strategy::Brdf) => crate::gpu::layout::STRATEGY_BRDF as f64,
-            Some(Strategy::Light) => crate::gpu::layout::STRATEGY_LIGHT as f64,
-            Some(Strategy::Mis) => crate::gpu::layout::STRATEGY_MIS as f64,
-            Some(Strategy::MisLobes) => crate::gpu::layout::STRATEGY_MIS_LOBES as f64,
-        };
+        // 255: read from the frame at run time (features.wgsl).
+        let strategy = self.strategy.map_or(255.0, |s| s.gpu_code() as f64);
         let (t, d) = (&self.techniques, &self.driver);
         let mut constants = vec![
             ("STRATEGY", strategy),

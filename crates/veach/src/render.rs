@@ -526,13 +526,7 @@ impl Renderer {
             image_height: s.height,
             seed: s.seed,
             first_sample: s.first_sample,
-            strategy: match strategy {
-                Strategy::Uniform => layout::STRATEGY_UNIFORM,
-                Strategy::Brdf => layout::STRATEGY_BRDF,
-                Strategy::Light => layout::STRATEGY_LIGHT,
-                Strategy::Mis => layout::STRATEGY_MIS,
-                Strategy::MisLobes => layout::STRATEGY_MIS_LOBES,
-            },
+            strategy: strategy.gpu_code(),
             light_samples: if strategy.samples_lights() { light_samples } else { 0 },
             brdf_samples: if strategy == Strategy::Light { 0 } else { brdf_samples },
             heuristic: match s.heuristic {

@@ -126,12 +126,6 @@ impl LightSelection {
         LightSelection::Tree,
     ];
 
-    /// Whether the probability of choosing a light depends on the shading point: a direction
-    /// sample's MIS weight then needs its own point's selection (no deferred rays).
-    pub fn per_point(self) -> bool {
-        matches!(self, LightSelection::Bsdf | LightSelection::Tree)
-    }
-
     /// Its code in the frame's parameters and the kernels' LIGHT_SELECTION (SELECT_* in
     /// shaders/layout.wgsl).
     pub fn gpu_code(self) -> u32 {
@@ -160,6 +154,20 @@ impl LightSampling {
 impl Strategy {
     pub const ALL: [Strategy; 5] =
         [Strategy::Uniform, Strategy::Brdf, Strategy::Light, Strategy::Mis, Strategy::MisLobes];
+
+    /// Its code in the frame's parameters and the kernels' STRATEGY (STRATEGY_* in
+    /// shaders/layout.wgsl).
+    pub fn gpu_code(self) -> u32 {
+        use crate::gpu::layout;
+        match self {
+            Strategy::Uniform => layout::STRATEGY_UNIFORM,
+            Strategy::Brdf => layout::STRATEGY_BRDF,
+            Strategy::Light => layout::STRATEGY_LIGHT,
+            Strategy::Mis => layout::STRATEGY_MIS,
+            Strategy::MisLobes => layout::STRATEGY_MIS_LOBES,
+        }
+    }
+
     pub fn name(self) -> &'static str {
         match self {
             Strategy::Uniform => "uniform",
