@@ -9,7 +9,9 @@ For each scene of the folder (`veach generate zoo` writes them, with zoo.csv): a
 rendered by veach (MIS 4 + 4, one light chosen by power per light sample, --reference-spp, as two
 halves of independent seeds whose difference estimates the reference's own relMSE), then
 each variant at --spp camera samples per pixel, --seeds times. A variant is NAME=FLAGS: the
-flags `veach render` gets on top of the size, seed and --spp ("defaults=" for none at all). Emitters
+flags `veach render` gets on top of the size, seed and --spp ("defaults=" for none at all).
+`--variant-binary NAME=PATH` has that variant run another build of veach (a change to the kernel
+measured against the build without it; the references come from --veach). Emitters
 seen directly are left out of every image (--hide-emitters), so errors measure reflected light.
 Times are veach's render times from --stats (kernel creation and uploads excluded).
 relMSE = mean over pixels and channels of (x - r)^2 / (r^2 + 1e-2); efficiency = 1 / (relMSE x
@@ -72,9 +74,15 @@ def main():
     ap.add_argument("--reference-spp", type=int, default=256)
     ap.add_argument("--variant", action="append", default=[], metavar="NAME=FLAGS",
                     help="a setting to compare (repeat; the first is the baseline of the ratios)")
+    ap.add_argument("--variant-binary", action="append", default=[], metavar="NAME=PATH",
+                    help="the veach binary variant NAME runs (default: --veach)")
     ap.add_argument("--scenes", help="comma-separated scene names (default: every scene of zoo.csv)")
     args = ap.parse_args()
     variants = [(v.split("=", 1)[0], v.split("=", 1)[1].split()) for v in args.variant] or [("defaults", [])]
+    binaries = dict(b.split("=", 1) for b in args.variant_binary)
+    unknown = set(binaries) - {v for v, _ in variants}
+    if unknown:
+        sys.exit(f"--variant-binary names no --variant: {', '.join(sorted(unknown))}")
     os.makedirs(args.output, exist_ok=True)
     with open(os.path.join(args.zoo, "zoo.csv")) as f:
         names = [line.split(",")[0] for line in f.read().splitlines()[1:]]
@@ -106,7 +114,8 @@ def main():
             for seed in range(1, args.seeds + 1):
                 out = os.path.join(args.output, "image.pfm")
                 stats = os.path.join(args.output, "stats.json")
-                failure = render(args.veach, scene, out, size + ["--spp", str(args.spp), "--seed", str(seed)] + flags, stats)
+                failure = render(binaries.get(vname, args.veach), scene, out,
+                                 size + ["--spp", str(args.spp), "--seed", str(seed)] + flags, stats)
                 if failure:
                     break
                 with open(stats) as f:
