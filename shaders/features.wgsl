@@ -75,20 +75,20 @@ override DEFERRED_DIRECTION_RAYS: bool = false;
 override RENDER_WORKGROUP_WIDTH: u32 = 8u;
 override RENDER_WORKGROUP_HEIGHT: u32 = 8u;
 
-const STRATEGY_FROM_FRAME: u32 = 255u;
+// An override constant of 255 leaves the choice to the frame's parameters (the generic kernel).
+const FROM_FRAME: u32 = 255u;
 
-fn active_strategy() -> u32 {
-    if STRATEGY != STRATEGY_FROM_FRAME {
-        return STRATEGY;
+fn fixed_or_frame(fixed: u32, from_frame: u32) -> u32 {
+    if fixed != FROM_FRAME {
+        return fixed;
     }
-    return frame.strategy;
+    return from_frame;
 }
 
-const SELECTION_FROM_FRAME: u32 = 255u;
+fn active_strategy() -> u32 {
+    return fixed_or_frame(STRATEGY, frame.strategy);
+}
 
 fn active_light_selection() -> u32 {
-    if LIGHT_SELECTION != SELECTION_FROM_FRAME {
-        return LIGHT_SELECTION;
-    }
-    return frame.light_selection;
+    return fixed_or_frame(LIGHT_SELECTION, frame.light_selection);
 }

@@ -13,16 +13,11 @@
 
 use glam::{Mat4, Vec3};
 use std::collections::HashMap;
-use veach::bvh::{BvhNode, build_bvh};
+use veach::bvh::{BvhNode, build_bvh, half_area};
 use veach::scene::Triangle;
 
 fn triangle(p: [Vec3; 3]) -> Triangle {
     Triangle { p, n: [Vec3::Z; 3], uv: Default::default(), material: 0 }
-}
-
-fn half_area(min: Vec3, max: Vec3) -> f32 {
-    let d = (max - min).max(Vec3::ZERO);
-    d.x * d.y + d.y * d.z + d.z * d.x
 }
 
 /// Half the surface area of the parallelepiped `m` makes of the box.
@@ -34,9 +29,10 @@ fn placed_half_area(m: &Mat4, n: &BvhNode) -> f32 {
     a.cross(b).length() + b.cross(c).length() + c.cross(a).length()
 }
 
-/// Σ over nodes of (half area × tests there): inner nodes one test, leaves one per triangle.
-fn absolute_cost(nodes: &[BvhNode], area: impl Fn(&BvhNode) -> f32, per_leaf_item: f32) -> f32 {
-    nodes.iter().map(|n| area(n) * if n.count > 0 { n.count as f32 * per_leaf_item } else { 1.0 }).sum()
+/// Σ over the nodes of (half area × tests there): one at an inner node, one per triangle (or
+/// instance) at a leaf. `Bvh::sah_cost` is this over the root's half area.
+fn absolute_cost(nodes: &[BvhNode], area: impl Fn(&BvhNode) -> f32) -> f32 {
+    nodes.iter().map(|n| area(n) * if n.count > 0 { n.count as f32 } else { 1.0 }).sum()
 }
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -76,9 +72,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     let flat_bvh = build_bvh(&flat);
-    let root = &flat_bvh.nodes[0];
-    let root_area = half_area(Vec3::from(root.min), Vec3::from(root.max));
-    let flat_cost = absolute_cost(&flat_bvh.nodes, |n| half_area(Vec3::from(n.min), Vec3::from(n.max)), 1.0);
+    let root_area = half_area(&flat_bvh.nodes[0]);
     // Two levels: a tree per mesh, and one over the instances' world boxes (a triangle spanning a
     // box's corners has that box), each leaf item one unit to enter an instance.
     let mut bottom_cost = 0.0;
@@ -90,7 +84,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         bottom_nodes += bvh.nodes.len();
         let r = &bvh.nodes[0];
         for m in ms {
-            bottom_cost += absolute_cost(&bvh.nodes, |n| placed_half_area(m, n), 1.0);
+            bottom_cost += absolute_cost(&bvh.nodes, |n| placed_half_area(m, n));
             let corners = (0..8).map(|i| {
                 let pick = |k: usize| if i >> k & 1 == 1 { r.max[k] } else { r.min[k] };
                 m.transform_point3(Vec3::new(pick(0), pick(1), pick(2)))
@@ -100,10 +94,10 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
     }
     let top = build_bvh(&instance_boxes);
-    let top_cost = absolute_cost(&top.nodes, |n| half_area(Vec3::from(n.min), Vec3::from(n.max)), 1.0);
+    let top_cost = top.sah_cost * half_area(&top.nodes[0]);
     let placed: usize = placements.values().map(Vec::len).sum();
     println!("{path}: {placed} instances of {} meshes, {} placed triangles", placements.len(), flat.len());
-    println!("flat tree:       SAH cost {:.1} ({} nodes)", flat_cost / root_area, flat_bvh.nodes.len());
+    println!("flat tree:       SAH cost {:.1} ({} nodes)", flat_bvh.sah_cost, flat_bvh.nodes.len());
     println!(
         "two levels:      SAH cost {:.1} (instances' tree {:.1}, meshes' trees {:.1}; {} + {} nodes)",
         (top_cost + bottom_cost) / root_area,

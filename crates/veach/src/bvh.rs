@@ -191,7 +191,8 @@ impl Bvh {
     }
 }
 
-pub(crate) fn half_area(n: &BvhNode) -> f32 {
+/// Half a node box's surface area (the SAH's measure of how often a ray enters it).
+pub fn half_area(n: &BvhNode) -> f32 {
     let d = [n.max[0] - n.min[0], n.max[1] - n.min[1], n.max[2] - n.min[2]];
     d[0] * d[1] + d[1] * d[2] + d[2] * d[0]
 }

@@ -372,12 +372,12 @@ impl KernelPlan {
     /// The values of the WGSL `override` constants (`shaders/features.wgsl`).
     pub fn constants(&self) -> Vec<(&'static str, f64)> {
         let flag = |b: bool| if b { 1.0 } else { 0.0 };
-        // 255: read from the frame at run time (features.wgsl).
-        let strategy = self.strategy.map_or(255.0, |s| s.gpu_code() as f64);
+        // FROM_FRAME (features.wgsl): the kernel reads the choice from the frame at run time.
+        const FROM_FRAME: f64 = 255.0;
         let (t, d) = (&self.techniques, &self.driver);
         let mut constants = vec![
-            ("STRATEGY", strategy),
-            ("LIGHT_SELECTION", self.light_selection.map_or(255.0, |s| s.gpu_code() as f64)),
+            ("STRATEGY", self.strategy.map_or(FROM_FRAME, |s| s.gpu_code() as f64)),
+            ("LIGHT_SELECTION", self.light_selection.map_or(FROM_FRAME, |s| s.gpu_code() as f64)),
             ("HAS_AREA_LIGHTS", flag(self.lights.area)),
             ("HAS_DELTA_LIGHTS", flag(self.lights.delta)),
             ("HAS_GLOSSY", flag(self.lobes.glossy)),
