@@ -51,7 +51,7 @@ enum Command {
         scene: PathBuf,
     },
     /// Write one of the scenes veach generates as .gltf: the ones shipped in assets/, the stiff
-    /// and extreme scenes of the stability suite (stress-*), or with `zoo` the scene zoo (35
+    /// and extreme scenes of the stability suite (stress-*), or with `zoo` the scene zoo (38
     /// scenes in families, from a seed) into a folder, with an index zoo.csv
     Generate {
         /// Scene name, or `zoo`

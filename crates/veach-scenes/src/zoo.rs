@@ -7,7 +7,8 @@
 //! from 1 mm to one that fills the sky); light shapes (tessellated spheres, an emissive mesh,
 //! long thin tubes); point, spot and directional lights; meshes from 1k to 1M triangles with
 //! shape (displaced spheres, instanced rocks, grass blades); materials (diffuse, glossy, mirror,
-//! rough metal, textured); and the stiff cases of the stability suite (`stress`).
+//! rough metal, textured); occluded lights (rooms behind walls, lamps in shades); and the stiff
+//! cases of the stability suite (`stress`).
 
 use crate::SplitMix64;
 use crate::gltf_writer::{GltfBuilder, MaterialDesc, MaterialTextures, MeshData, Punctual, TextureUse};
@@ -353,6 +354,128 @@ fn material(seed: u64, kind: &str) -> GltfBuilder {
     g
 }
 
+/// A box of `size` (x, y, z) with its lower corner at `lo`: a wall, a lintel, a shade's side.
+fn slab(lo: Vec3, size: Vec3) -> MeshData {
+    let corners = [
+        Vec3::new(lo.x, 0.0, lo.z),
+        Vec3::new(lo.x + size.x, 0.0, lo.z),
+        Vec3::new(lo.x + size.x, 0.0, lo.z + size.z),
+        Vec3::new(lo.x, 0.0, lo.z + size.z),
+    ];
+    let mut m = MeshData::prism(corners, size.y);
+    for p in &mut m.positions {
+        p.y += lo.y;
+    }
+    m
+}
+
+/// `side` × `side` rooms of 4 m, walls 2.6 m high, a doorway 1 m wide somewhere in each inner
+/// wall, one or two ceiling lights in every room (radiance over two decades), the camera in a
+/// corner room: most lights are behind walls, close by, and a light choice that ignores
+/// visibility sends most of its samples to them.
+fn rooms(seed: u64, side: usize) -> GltfBuilder {
+    let mut rng = Rng::new(seed, &format!("rooms-{}", side * side));
+    let mut g = GltfBuilder::new();
+    const ROOM: f32 = 4.0;
+    const HEIGHT: f32 = 2.6;
+    const WALL: f32 = 0.1;
+    const DOOR: f32 = 1.0;
+    const DOOR_HEIGHT: f32 = 2.1;
+    let extent = ROOM * side as f32;
+    let floor = g.material(&MaterialDesc::lambert("floor", Vec3::new(0.55, 0.45, 0.35)));
+    let plaster = g.material(&MaterialDesc::lambert("plaster", Vec3::splat(0.75)));
+    let e = extent;
+    g.add_mesh(
+        "floor",
+        &MeshData::quad(Vec3::ZERO, Vec3::new(e, 0., 0.), Vec3::new(e, 0., e), Vec3::new(0., 0., e), Vec3::Y),
+        floor,
+        Mat4::IDENTITY,
+    );
+    let h = HEIGHT;
+    g.add_mesh(
+        "ceiling",
+        &MeshData::quad(Vec3::new(0., h, 0.), Vec3::new(e, h, 0.), Vec3::new(e, h, e), Vec3::new(0., h, e), -Vec3::Y),
+        plaster,
+        Mat4::IDENTITY,
+    );
+    let mut walls = MeshData::default();
+    // Outer walls, closed.
+    walls.append(&slab(Vec3::new(-WALL, 0., -WALL), Vec3::new(e + 2. * WALL, h, WALL)));
+    walls.append(&slab(Vec3::new(-WALL, 0., e), Vec3::new(e + 2. * WALL, h, WALL)));
+    walls.append(&slab(Vec3::new(-WALL, 0., 0.), Vec3::new(WALL, h, e)));
+    walls.append(&slab(Vec3::new(e, 0., 0.), Vec3::new(WALL, h, e)));
+    // Inner walls: along z at x = i ROOM and along x at z = i ROOM, a doorway in each room's length.
+    for i in 1..side {
+        for j in 0..side {
+            let at = rng.range(0.4, ROOM - DOOR - 0.4);
+            let (a, b) = (j as f32 * ROOM, i as f32 * ROOM - WALL / 2.0);
+            walls.append(&slab(Vec3::new(b, 0., a), Vec3::new(WALL, h, at)));
+            walls.append(&slab(Vec3::new(b, 0., a + at + DOOR), Vec3::new(WALL, h, ROOM - at - DOOR)));
+            walls.append(&slab(Vec3::new(b, DOOR_HEIGHT, a + at), Vec3::new(WALL, h - DOOR_HEIGHT, DOOR)));
+            let at = rng.range(0.4, ROOM - DOOR - 0.4);
+            walls.append(&slab(Vec3::new(a, 0., b), Vec3::new(at, h, WALL)));
+            walls.append(&slab(Vec3::new(a + at + DOOR, 0., b), Vec3::new(ROOM - at - DOOR, h, WALL)));
+            walls.append(&slab(Vec3::new(a + at, DOOR_HEIGHT, b), Vec3::new(DOOR, h - DOOR_HEIGHT, WALL)));
+        }
+    }
+    g.add_mesh("walls", &walls, plaster, Mat4::IDENTITY);
+    let mut k = 0;
+    for rx in 0..side {
+        for rz in 0..side {
+            for _ in 0..1 + rng.below(2) {
+                let c = Vec3::new(
+                    (rx as f32 + rng.range(0.2, 0.8)) * ROOM,
+                    HEIGHT - 0.02,
+                    (rz as f32 + rng.range(0.2, 0.8)) * ROOM,
+                );
+                let size = rng.log_range(0.2, 0.6);
+                let radiance = rng.log_range(2.0, 200.0) * 0.04 / (size * size);
+                let m = g.material(&MaterialDesc::emitter(&format!("ceiling light {k}"), Vec3::splat(radiance)));
+                g.add_mesh(&format!("ceiling light {k}"), &quad_light(c, size, -Vec3::Y), m, Mat4::IDENTITY);
+                k += 1;
+            }
+        }
+    }
+    let a = rng.range(0.3, 0.6);
+    g.camera("camera", Vec3::new(0.4, 1.6, 0.4), Vec3::new(ROOM * (1.0 + a), 1.0, ROOM * (2.0 - a)), 60.0);
+    g
+}
+
+/// 16 lamps over the stage, each a small bright light in a shade open below: seen from a point
+/// beside or above a lamp, its light is hidden, though its bounds face the point.
+fn lamp_shades(seed: u64) -> GltfBuilder {
+    let mut rng = Rng::new(seed, "lamp-shades");
+    let mut g = GltfBuilder::new();
+    stage(&mut g);
+    props(&mut g);
+    let shade = g.material(&MaterialDesc { double_sided: true, ..MaterialDesc::lambert("shade", Vec3::splat(0.8)) });
+    let mut shades = MeshData::default();
+    for i in 0..16 {
+        let c = Vec3::new(rng.range(-3.5, 3.5), rng.range(1.2, 3.0), rng.range(-3.5, 2.0));
+        let (r, depth) = (rng.range(0.12, 0.25), rng.range(0.15, 0.35));
+        let corners =
+            [c + Vec3::new(-r, 0., -r), c + Vec3::new(r, 0., -r), c + Vec3::new(r, 0., r), c + Vec3::new(-r, 0., r)];
+        let top = Vec3::Y * depth;
+        shades.append(&MeshData::quad(
+            corners[0] + top,
+            corners[1] + top,
+            corners[2] + top,
+            corners[3] + top,
+            -Vec3::Y,
+        ));
+        for s in 0..4 {
+            let (a, b) = (corners[s], corners[(s + 1) % 4]);
+            shades.append(&MeshData::quad(a, b, b + top, a + top, c - 0.5 * (a + b)));
+        }
+        let size = r * 0.6;
+        let radiance = rng.log_range(1.0, 100.0) * 0.2 / (size * size);
+        let m = g.material(&MaterialDesc::emitter(&format!("lamp {i}"), Vec3::splat(radiance)));
+        g.add_mesh(&format!("lamp {i}"), &quad_light(c + top * 0.9, size, -Vec3::Y), m, Mat4::IDENTITY);
+    }
+    g.add_mesh("shades", &shades, shade, Mat4::IDENTITY);
+    g
+}
+
 /// Every zoo scene for `seed`. The stiff cases (`stress-*`) do not depend on it.
 pub fn zoo(seed: u64) -> Vec<ZooScene> {
     let mut out = Vec::new();
@@ -412,6 +535,15 @@ pub fn zoo(seed: u64) -> Vec<ZooScene> {
     for kind in ["diffuse", "glossy", "mirror", "rough-metal", "textured"] {
         push(format!("material-{kind}"), "materials", format!("spheres and a box, all {kind}"), material(seed, kind));
     }
+    for side in [2, 4] {
+        push(
+            format!("rooms-{}", side * side),
+            "occluded lights",
+            format!("{} rooms of 4 m with doorways, 1-2 ceiling lights each", side * side),
+            rooms(seed, side),
+        );
+    }
+    push("lamp-shades".into(), "occluded lights", "16 small lights in shades open below".into(), lamp_shades(seed));
     for name in crate::stress::STRESS_SCENES {
         let builder = crate::stress::stress_scene(name).expect("a stress scene");
         push(format!("stress-{name}"), "stiff", "the stability suite's scene".into(), builder);
@@ -428,13 +560,15 @@ mod tests {
         let a = zoo(1);
         assert!(a.len() >= 30, "{} scenes", a.len());
         let families: std::collections::BTreeSet<_> = a.iter().map(|s| s.family).collect();
-        assert_eq!(families.len(), 7, "{families:?}");
+        assert_eq!(families.len(), 8, "{families:?}");
         let names: std::collections::BTreeSet<_> = a.iter().map(|s| s.name.as_str()).collect();
         assert_eq!(names.len(), a.len(), "names repeat");
         let json =
             |z: &[ZooScene], name: &str| z.iter().find(|s| s.name == name).unwrap().builder.to_json().to_string();
         let b = zoo(2);
-        assert_ne!(json(&a, "lights-100"), json(&b, "lights-100"), "the seed changes the scene");
+        for name in ["lights-100", "rooms-16", "lamp-shades"] {
+            assert_ne!(json(&a, name), json(&b, name), "the seed changes {name}");
+        }
         assert_eq!(json(&a, "lights-100"), json(&zoo(1), "lights-100"), "the same seed, the same scene");
     }
 }
