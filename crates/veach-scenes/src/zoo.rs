@@ -354,7 +354,7 @@ fn material(seed: u64, kind: &str) -> GltfBuilder {
     g
 }
 
-/// A box of `size` (x, y, z) with its lower corner at `lo`: a wall, a lintel, a shade's side.
+/// A box of `size` (x, y, z) with its lower corner at `lo`: a wall or a lintel.
 fn slab(lo: Vec3, size: Vec3) -> MeshData {
     let corners = [
         Vec3::new(lo.x, 0.0, lo.z),
@@ -381,17 +381,15 @@ fn rooms(seed: u64, side: usize) -> GltfBuilder {
     const WALL: f32 = 0.1;
     const DOOR: f32 = 1.0;
     const DOOR_HEIGHT: f32 = 2.1;
-    let extent = ROOM * side as f32;
+    let (e, h) = (ROOM * side as f32, HEIGHT);
     let floor = g.material(&MaterialDesc::lambert("floor", Vec3::new(0.55, 0.45, 0.35)));
     let plaster = g.material(&MaterialDesc::lambert("plaster", Vec3::splat(0.75)));
-    let e = extent;
     g.add_mesh(
         "floor",
         &MeshData::quad(Vec3::ZERO, Vec3::new(e, 0., 0.), Vec3::new(e, 0., e), Vec3::new(0., 0., e), Vec3::Y),
         floor,
         Mat4::IDENTITY,
     );
-    let h = HEIGHT;
     g.add_mesh(
         "ceiling",
         &MeshData::quad(Vec3::new(0., h, 0.), Vec3::new(e, h, 0.), Vec3::new(e, h, e), Vec3::new(0., h, e), -Vec3::Y),
