@@ -31,23 +31,27 @@ pub struct Bvh {
     pub sah_cost: f32,
 }
 
-/// obvhs's medium preset with leaves collapsed at a node cost of 2 triangle tests instead of 3:
-/// smaller leaves. Measured with Mesa 25's lavapipe, 256×256, 32 spp, medians of 3: Cornell box
-/// 0.90-0.92× the render time (light, mis, mis-lobes), Veach scene 0.96-0.99×, textured scene
-/// within the spread (Mesa 22.3: 0.93-0.98×); 7 more bytes per triangle (49 at 1M triangles)
-/// (docs/performance.md, "Smaller BVH leaves").
-fn build_params() -> BvhBuildParams {
-    BvhBuildParams { collapse_traversal_cost: 2.0, ..BvhBuildParams::medium_build() }
+/// obvhs's medium preset with two changes (docs/performance.md, "Smaller BVH leaves" and
+/// "Reinsertion over every node"):
+/// - leaves collapsed at a node cost of 2 triangle tests instead of 3: smaller leaves. Measured
+///   with Mesa 25's lavapipe, 256×256, 32 spp, medians of 3: Cornell box 0.90-0.92× the render
+///   time, Veach scene 0.96-0.99× (Mesa 22.3: 0.93-0.98×); 7 more bytes per triangle;
+/// - reinsertion (Meister & Bittner 2018) offered every node before the collapse, not a twentieth
+///   of them: the SAH cost of the zoo's overlapping scenes falls 9-11% (instanced rocks 58.8 →
+///   53.7, grass 166 → 151) and their render time 7-10%, for 4-7× the build time (a million
+///   triangles 0.5 → 3.9 s on 2 cores).
+fn build_params(collapse_traversal_cost: f32) -> BvhBuildParams {
+    BvhBuildParams { collapse_traversal_cost, reinsertion_batch_ratio: 1.0, ..BvhBuildParams::medium_build() }
 }
 
 pub fn build_bvh(triangles: &[Triangle]) -> Bvh {
-    build_bvh_with(triangles, build_params())
+    build_bvh_with(triangles, build_params(2.0))
 }
 
-/// obvhs's own medium preset: leaves collapsed at a node cost of 3 triangle tests, about a third
-/// fewer nodes than `build_bvh`'s (`gpu::bvh_nodes::build_bvh_fitting`).
+/// Leaves collapsed at obvhs's own node cost of 3 triangle tests: about a third fewer nodes than
+/// `build_bvh`'s (`gpu::bvh_nodes::build_bvh_fitting`).
 pub fn build_bvh_larger_leaves(triangles: &[Triangle]) -> Bvh {
-    build_bvh_with(triangles, BvhBuildParams::medium_build())
+    build_bvh_with(triangles, build_params(3.0))
 }
 
 fn build_bvh_with(triangles: &[Triangle], params: BvhBuildParams) -> Bvh {
