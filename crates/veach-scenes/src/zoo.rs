@@ -381,7 +381,7 @@ fn rooms(seed: u64, side: usize) -> GltfBuilder {
     const WALL: f32 = 0.1;
     const DOOR: f32 = 1.0;
     const DOOR_HEIGHT: f32 = 2.1;
-    let (e, h) = (ROOM * side as f32, HEIGHT);
+    let e = ROOM * side as f32;
     let floor = g.material(&MaterialDesc::lambert("floor", Vec3::new(0.55, 0.45, 0.35)));
     let plaster = g.material(&MaterialDesc::lambert("plaster", Vec3::splat(0.75)));
     g.add_mesh(
@@ -392,28 +392,34 @@ fn rooms(seed: u64, side: usize) -> GltfBuilder {
     );
     g.add_mesh(
         "ceiling",
-        &MeshData::quad(Vec3::new(0., h, 0.), Vec3::new(e, h, 0.), Vec3::new(e, h, e), Vec3::new(0., h, e), -Vec3::Y),
+        &MeshData::quad(
+            Vec3::new(0., HEIGHT, 0.),
+            Vec3::new(e, HEIGHT, 0.),
+            Vec3::new(e, HEIGHT, e),
+            Vec3::new(0., HEIGHT, e),
+            -Vec3::Y,
+        ),
         plaster,
         Mat4::IDENTITY,
     );
     let mut walls = MeshData::default();
     // Outer walls, closed.
-    walls.append(&slab(Vec3::new(-WALL, 0., -WALL), Vec3::new(e + 2. * WALL, h, WALL)));
-    walls.append(&slab(Vec3::new(-WALL, 0., e), Vec3::new(e + 2. * WALL, h, WALL)));
-    walls.append(&slab(Vec3::new(-WALL, 0., 0.), Vec3::new(WALL, h, e)));
-    walls.append(&slab(Vec3::new(e, 0., 0.), Vec3::new(WALL, h, e)));
+    walls.append(&slab(Vec3::new(-WALL, 0., -WALL), Vec3::new(e + 2. * WALL, HEIGHT, WALL)));
+    walls.append(&slab(Vec3::new(-WALL, 0., e), Vec3::new(e + 2. * WALL, HEIGHT, WALL)));
+    walls.append(&slab(Vec3::new(-WALL, 0., 0.), Vec3::new(WALL, HEIGHT, e)));
+    walls.append(&slab(Vec3::new(e, 0., 0.), Vec3::new(WALL, HEIGHT, e)));
     // Inner walls: along z at x = i ROOM and along x at z = i ROOM, a doorway in each room's length.
     for i in 1..side {
         for j in 0..side {
             let at = rng.range(0.4, ROOM - DOOR - 0.4);
             let (a, b) = (j as f32 * ROOM, i as f32 * ROOM - WALL / 2.0);
-            walls.append(&slab(Vec3::new(b, 0., a), Vec3::new(WALL, h, at)));
-            walls.append(&slab(Vec3::new(b, 0., a + at + DOOR), Vec3::new(WALL, h, ROOM - at - DOOR)));
-            walls.append(&slab(Vec3::new(b, DOOR_HEIGHT, a + at), Vec3::new(WALL, h - DOOR_HEIGHT, DOOR)));
+            walls.append(&slab(Vec3::new(b, 0., a), Vec3::new(WALL, HEIGHT, at)));
+            walls.append(&slab(Vec3::new(b, 0., a + at + DOOR), Vec3::new(WALL, HEIGHT, ROOM - at - DOOR)));
+            walls.append(&slab(Vec3::new(b, DOOR_HEIGHT, a + at), Vec3::new(WALL, HEIGHT - DOOR_HEIGHT, DOOR)));
             let at = rng.range(0.4, ROOM - DOOR - 0.4);
-            walls.append(&slab(Vec3::new(a, 0., b), Vec3::new(at, h, WALL)));
-            walls.append(&slab(Vec3::new(a + at + DOOR, 0., b), Vec3::new(ROOM - at - DOOR, h, WALL)));
-            walls.append(&slab(Vec3::new(a + at, DOOR_HEIGHT, b), Vec3::new(DOOR, h - DOOR_HEIGHT, WALL)));
+            walls.append(&slab(Vec3::new(a, 0., b), Vec3::new(at, HEIGHT, WALL)));
+            walls.append(&slab(Vec3::new(a + at + DOOR, 0., b), Vec3::new(ROOM - at - DOOR, HEIGHT, WALL)));
+            walls.append(&slab(Vec3::new(a + at, DOOR_HEIGHT, b), Vec3::new(DOOR, HEIGHT - DOOR_HEIGHT, WALL)));
         }
     }
     g.add_mesh("walls", &walls, plaster, Mat4::IDENTITY);

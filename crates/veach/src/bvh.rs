@@ -39,7 +39,7 @@ pub struct Bvh {
 /// - reinsertion (Meister & Bittner 2018) offered every node before the collapse, not a twentieth
 ///   of them: the SAH cost of the zoo's overlapping scenes falls 9-11% (instanced rocks 58.8 →
 ///   53.7, grass 166 → 151) and their render time 7-10%, for 4-7× the build time (a million
-///   triangles 0.5 → 3.9 s on 2 cores).
+///   triangles 0.5 → 3.5-3.9 s on 2 cores).
 fn build_params(collapse_traversal_cost: f32) -> BvhBuildParams {
     BvhBuildParams { collapse_traversal_cost, reinsertion_batch_ratio: 1.0, ..BvhBuildParams::medium_build() }
 }
