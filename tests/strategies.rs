@@ -436,6 +436,117 @@ fn cone_light_sampling_agrees_with_area_sampling() {
     );
 }
 
+/// A curved emissive mesh is loaded as lights of its own parts (`light_shape::light_parts`): a
+/// tube of rectangles (each a parallelogram light) closed by fans of single triangles. Split, it
+/// renders the expectation it has as one light: each region's mean under `veach render`'s defaults
+/// (lights chosen by the tree, which picks among the parts), and under lights chosen by power and
+/// uniformly, agrees with the whole light's within |Δ|/σ below the Bonferroni z of all
+/// comparisons at family-wise significance 1e-3 (σ² = the two means' variances: independent
+/// samples, each pixel's sample variance / n).
+#[test]
+fn a_curved_light_split_into_parts_renders_what_it_does_whole() {
+    // Above and behind the camera, out of its view, lighting the floor in front of it.
+    let (segments, radius, y, z) = (12u32, 0.12f32, 1.6f32, 2.9f32);
+    let (x0, x1) = (-0.8f32, 0.6f32);
+    let ring = |k: u32, x: f32| {
+        let a = std::f32::consts::TAU * k as f32 / segments as f32;
+        Vec3::new(x, y + radius * a.cos(), z + radius * a.sin())
+    };
+    let mut tube = MeshData::default();
+    for k in 0..segments {
+        let (a, b) = (ring(k, x0), ring(k + 1, x0));
+        let outward = 0.5 * (a + b) - Vec3::new(x0, y, z);
+        tube.append(&MeshData::quad(a, ring(k, x1), ring(k + 1, x1), b, outward));
+    }
+    for (x, facing) in [(x0, -1.0f32), (x1, 1.0)] {
+        let centre = Vec3::new(x, y, z);
+        for k in 0..segments {
+            let (a, b) = (ring(k, x), ring(k + 1, x));
+            let t = if (b - a).cross(centre - a).x * facing > 0.0 { [a, b, centre] } else { [a, centre, b] };
+            tube.append(&MeshData { positions: t.to_vec(), normals: None, uvs: None, indices: vec![0, 1, 2] });
+        }
+    }
+    let path = floor_scene_lit_by(
+        "curved-light",
+        MaterialDesc::lambert("white", Vec3::splat(0.7)),
+        MaterialDesc::metal("rough gold", Vec3::new(0.9, 0.7, 0.3), 0.3),
+        &[(tube, Vec3::new(6.0, 6.0, 5.0))],
+    );
+    let split = veach::load_gltf(std::path::Path::new(&path)).unwrap();
+    assert_eq!(split.lights.len(), 12 + 2 * 12, "{:?}", split.lights.iter().map(|l| &l.name).collect::<Vec<_>>());
+    let mut whole = split.clone();
+    let all: Vec<u32> = split
+        .lights
+        .iter()
+        .flat_map(|l| match &l.kind {
+            veach::scene::LightKind::Area { triangles, .. } => triangles.clone(),
+            _ => unreachable!("area lights only"),
+        })
+        .collect();
+    assert_eq!(all.len(), 4 * segments as usize, "every triangle in one part");
+    whole.lights.truncate(1);
+    let veach::scene::LightKind::Area { triangles, .. } = &mut whole.lights[0].kind else { unreachable!() };
+    *triangles = all;
+    let camera = split.camera(None).unwrap();
+    let (width, block) = (24u32, 6u32);
+    let settings = |selection: LightSelection, seed: u32| RenderSettings {
+        width,
+        height: width,
+        spp: 256,
+        light_selection: selection,
+        seed,
+        sampler: Sampler::Independent,
+        ..RenderSettings::recommended()
+    };
+    let selections = [LightSelection::Tree, Power, Uniform];
+    let regions = (width / block) * (width / block);
+    let z = bonferroni_z(1e-3, selections.len() * regions as usize * 3);
+    let whole_out = render(&upload(&whole), &settings(LightSelection::Tree, 1), &camera);
+    let split_gpu = upload(&split);
+    let mut failures = Vec::new();
+    for (k, selection) in selections.into_iter().enumerate() {
+        let out = render(&split_gpu, &settings(selection, 10 + k as u32), &camera);
+        assert_eq!(out.nonfinite_samples, 0);
+        let mut worst: f64 = 0.0;
+        for ry in 0..width / block {
+            for rx in 0..width / block {
+                let (x, y) = (rx * block, ry * block);
+                let (a, b) = (region(&out, x, y, x + block, y + block), region(&whole_out, x, y, x + block, y + block));
+                for ch in 0..3 {
+                    let sigma = (a.var[ch] + b.var[ch]).sqrt();
+                    let diff = (a.mean[ch] - b.mean[ch]).abs();
+                    // Regions black in both (sigma = 0) must agree exactly.
+                    let score = if sigma > 0.0 {
+                        diff / sigma
+                    } else if diff == 0.0 {
+                        0.0
+                    } else {
+                        f64::INFINITY
+                    };
+                    worst = worst.max(score);
+                    if score > z {
+                        failures.push(format!(
+                            "{selection:?}: region ({rx},{ry}) channel {ch}: {:.5} split vs {:.5} whole, |Δ|/σ = {score:.2} > {z:.2}",
+                            a.mean[ch], b.mean[ch]
+                        ));
+                    }
+                }
+            }
+        }
+        eprintln!("split, {selection:?}: worst |Δ|/σ = {worst:.2} (bound {z:.2})");
+        if worst > z {
+            let (a, b) = (out.mean(), whole_out.mean());
+            let diff = a.iter().zip(&b).map(|(p, q)| [0, 1, 2].map(|c| (p[c] - q[c]).abs())).collect();
+            let dir = write_failure_images(
+                "curved-light",
+                &[("split", width, width, a), ("whole", width, width, b), ("difference", width, width, diff)],
+            );
+            failures.push(format!("images in {}", dir.display()));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
 /// Solid-angle sampling (these scenes' lights are rectangles: Ureña et al. 2013's spherical
 /// rectangles) converges to the area-sampled MIS reference: on the Cornell box, and on the stress
 /// scenes where it matters, a light touching the floor (r² → 0 at the contact edge) and one seen

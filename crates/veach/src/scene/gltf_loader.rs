@@ -510,10 +510,20 @@ impl Loader<'_> {
                 let tris: Vec<u32> = (first_triangle..self.scene.triangles.len() as u32)
                     .filter(|&t| self.scene.triangles[t as usize].area() > 0.0)
                     .collect();
-                if !tris.is_empty() {
+                if tris.is_empty() {
+                    continue;
+                }
+                // A curved mesh becomes a light per part (light_shape::light_parts says why).
+                let parts = super::light_shape::light_parts(&super::light_shape::triangle_corners(self.scene, &tris));
+                let name = format!("{mesh_name} (node '{node_name}') primitive {}", prim.index());
+                for (k, part) in parts.iter().enumerate() {
                     self.scene.lights.push(Light {
-                        name: format!("{mesh_name} (node '{node_name}') primitive {}", prim.index()),
-                        kind: LightKind::Area { triangles: tris, radiance: m.emission, double_sided: m.double_sided },
+                        name: if parts.len() > 1 { format!("{name} part {k}") } else { name.clone() },
+                        kind: LightKind::Area {
+                            triangles: tris[part.clone()].to_vec(),
+                            radiance: m.emission,
+                            double_sided: m.double_sided,
+                        },
                     });
                 }
             }

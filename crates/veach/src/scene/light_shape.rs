@@ -1,7 +1,9 @@
 //! The shape of an area light, decided once from its triangles for the light records, the scene's
 //! features and the Mitsuba exporter: convex (its shadow rays skip the BVH subtrees it alone fills,
 //! `gpu::light_subtrees`), round (sampled by its bounding sphere's cone), a parallelogram (area
-//! samples map the unit square onto it) and a rectangle (sampled by its solid angle as a whole).
+//! samples map the unit square onto it) and a rectangle (sampled by its solid angle as a whole);
+//! and, when the scene is loaded, which emissive meshes are split into lights of their own parts
+//! (`light_parts`).
 
 use super::Scene;
 use glam::Vec3;
@@ -46,6 +48,52 @@ pub fn round_light_sphere(scene: &Scene, triangles: &[u32]) -> Option<(Vec3, f32
     let (centre, _) = bounding_sphere(triangle_corners(scene, triangles).into_iter().flatten());
     let area: f64 = triangles.iter().map(|&t| scene.triangles[t as usize].area() as f64).sum();
     Some((centre, (area / (4.0 * std::f64::consts::PI)).sqrt() as f32))
+}
+
+/// Mesh lights of more triangles stay one light: a part costs a light record and two light tree
+/// nodes (144 bytes) where a triangle of a whole light costs a 16-byte alias bucket, so 2^16
+/// parts are 9 MiB.
+pub const MAX_SPLIT_TRIANGLES: usize = 1 << 16;
+
+/// The parts an emissive mesh is split into, each a light of its own, as ranges of its triangles.
+/// A flat light (`is_flat`) and a round one (cone sampling takes it whole) stay one light: their
+/// triangles all face one way, so choosing among them by area loses nothing. A curved one (a
+/// torus, a tube, a bent strip) is split, each triangle a light, or each two consecutive triangles
+/// that make a parallelogram (parallelogram and rectangle sampling take those): the light tree
+/// then chooses among its parts by power, distance and orientation at each shading point (Conty
+/// Estevez & Kulla 2018), where a whole light's triangles were chosen by area alone, half of them
+/// facing away. pbrt-v4 makes every triangle of an emissive mesh a light for the same reason.
+pub fn light_parts(corners: &[[Vec3; 3]]) -> Vec<std::ops::Range<usize>> {
+    let whole = std::iter::once(0..corners.len()).collect();
+    if corners.len() > MAX_SPLIT_TRIANGLES || is_flat(corners) {
+        return whole;
+    }
+    let (_, radius) = bounding_sphere(corners.iter().flatten().copied());
+    if is_convex(corners) && is_round(corners, radius) {
+        return whole;
+    }
+    let mut parts = Vec::new();
+    let mut i = 0;
+    while i < corners.len() {
+        let n = if i + 1 < corners.len() && parallelogram_corner(&corners[i..i + 2]).is_some() { 2 } else { 1 };
+        parts.push(i..i + n);
+        i += n;
+    }
+    parts
+}
+
+/// Do all `triangles` lie in the first one's plane, within 1e-5 of the light's size, and face the
+/// way it does? A triangle without a plane (zero area) is not flat.
+pub fn is_flat(triangles: &[[Vec3; 3]]) -> bool {
+    let Some(&[p0, p1, p2]) = triangles.first() else { return false };
+    let n = (p1 - p0).cross(p2 - p0).normalize_or_zero();
+    let (lo, hi) = point_bounds(triangles.iter().flatten().copied());
+    let tolerance = 1e-5 * (hi - lo).length();
+    n != Vec3::ZERO
+        && tolerance.is_finite()
+        && triangles.iter().all(|&[a, b, c]| {
+            (b - a).cross(c - a).dot(n) > 0.0 && [a, b, c].iter().all(|&p| n.dot(p - p0).abs() <= tolerance)
+        })
 }
 
 /// The smallest box holding `points` (min, max).
@@ -267,5 +315,60 @@ mod tests {
         let cube = triangles(&MeshData::prism(footprint, 1.0));
         assert!(is_convex(&cube), "the prism is closed and outward");
         assert!(round(&cube));
+    }
+
+    #[test]
+    fn curved_lights_split_into_triangles_and_parallelograms_flat_and_round_ones_stay_whole() {
+        let whole = |t: &[[Vec3; 3]]| std::iter::once(0..t.len()).collect::<Vec<_>>();
+        // Flat: a square, and a fan of 16 triangles round a disc (no parallelograms in it).
+        let square = triangles(&MeshData::quad(Vec3::ZERO, Vec3::X, Vec3::new(1.0, 1.0, 0.0), Vec3::Y, Vec3::Z));
+        assert_eq!(light_parts(&square), whole(&square));
+        let fan: Vec<[Vec3; 3]> = (0..16)
+            .map(|i| {
+                let at = |k: u32| {
+                    let a = std::f32::consts::TAU * k as f32 / 16.0;
+                    Vec3::new(a.cos(), 2.0, a.sin())
+                };
+                [Vec3::new(0.0, 2.0, 0.0), at(i + 1), at(i)]
+            })
+            .collect();
+        assert!(is_flat(&fan));
+        assert_eq!(light_parts(&fan), whole(&fan));
+        // Round: a tessellated sphere stays one light for cone sampling.
+        let sphere = triangles(&MeshData::sphere(Vec3::new(1.0, 2.0, 3.0), 0.5, 24, 12));
+        assert!(!is_flat(&sphere));
+        assert_eq!(light_parts(&sphere), whole(&sphere));
+        // Curved: a roof of two rectangles (pairs of triangles) and a pyramid's four faces.
+        let ridge = (Vec3::new(0.0, 1.0, 0.0), Vec3::new(0.0, 1.0, 2.0));
+        let mut roof = MeshData::quad(
+            Vec3::new(-1.0, 0.0, 0.0),
+            ridge.0,
+            ridge.1,
+            Vec3::new(-1.0, 0.0, 2.0),
+            Vec3::new(-1.0, 1.0, 0.0),
+        );
+        roof.append(&MeshData::quad(
+            ridge.0,
+            Vec3::new(1.0, 0.0, 0.0),
+            Vec3::new(1.0, 0.0, 2.0),
+            ridge.1,
+            Vec3::new(1.0, 1.0, 0.0),
+        ));
+        let roof = triangles(&roof);
+        assert!(!is_flat(&roof));
+        assert_eq!(light_parts(&roof), vec![0..2, 2..4]);
+        let apex = Vec3::new(0.0, 0.2, 0.0);
+        let base = [
+            Vec3::new(-1.0, 0.0, -1.0),
+            Vec3::new(1.0, 0.0, -1.0),
+            Vec3::new(1.0, 0.0, 1.0),
+            Vec3::new(-1.0, 0.0, 1.0),
+        ];
+        let pyramid: Vec<[Vec3; 3]> = (0..4).map(|i| [base[i], apex, base[(i + 1) % 4]]).collect();
+        assert_eq!(light_parts(&pyramid), vec![0..1, 1..2, 2..3, 3..4]);
+        // Two triangles in one plane facing opposite ways are not flat: each is a light.
+        let (a, b, c) = (Vec3::ZERO, Vec3::X, Vec3::Y);
+        assert!(!is_flat(&[[a, b, c], [a, c, b + c]]));
+        assert!(is_flat(&[[a, b, c], [b, b + c, c]]));
     }
 }
