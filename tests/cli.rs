@@ -460,6 +460,22 @@ fn info_says_whether_a_scene_takes_the_control_variate() {
     assert!(veach_scene.contains("control variate: no (") && veach_scene.contains("3840"), "{veach_scene}");
 }
 
+/// `veach info` lists a curved mesh light, which the loader splits into a light per part, as one
+/// line: the zoo's glowing torus of 3,000 triangles.
+#[test]
+fn info_lists_a_split_mesh_light_on_one_line() {
+    let zoo = veach_scenes::zoo::zoo(1);
+    let torus = zoo.iter().find(|z| z.name == "emissive-mesh").expect("the zoo has its glowing torus");
+    let path = out_dir().join("info-emissive-mesh.gltf");
+    torus.builder.write(&path).unwrap();
+    let o = veach(&["info", path.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8(o.stdout).unwrap();
+    assert!(text.contains("  lights: 3000\n"), "{text}");
+    assert!(text.contains("primitive 0 (3000 area lights, one per part, 3000 triangles)"), "{text}");
+    assert!(!text.contains(" part 1"), "{text}");
+}
+
 /// Every pixel of a written image has the same camera samples, however the render stops: a time
 /// limit far shorter than one pass finishes the pass (rows left black before), and the header and
 /// --stats say how many samples the image holds.

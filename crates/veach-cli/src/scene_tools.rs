@@ -28,16 +28,31 @@ pub fn info(path: &Path) -> Result<()> {
         );
     }
     outln!("  lights: {}", scene.lights.len());
-    for l in &scene.lights {
-        let kind = match &l.kind {
-            veach::scene::LightKind::Area { triangles, .. } => {
-                format!("area, {} triangles", triangles.len())
-            }
-            veach::scene::LightKind::Point { .. } => "point".into(),
-            veach::scene::LightKind::Spot { .. } => "spot".into(),
-            veach::scene::LightKind::Directional { .. } => "directional".into(),
-        };
-        outln!("    {} ({kind})", l.name);
+    let triangles = |l: &veach::scene::Light| match &l.kind {
+        veach::scene::LightKind::Area { triangles, .. } => triangles.len(),
+        _ => 0,
+    };
+    // The parts of a curved mesh (lights named "MESH part K": light_shape::light_parts) on one line.
+    let mesh_of = |l: &veach::scene::Light| l.name.rsplit_once(" part ").map(|(mesh, _)| mesh.to_owned());
+    let mut i = 0;
+    while i < scene.lights.len() {
+        let l = &scene.lights[i];
+        let parts = mesh_of(l).map_or(1, |mesh| {
+            scene.lights[i..].iter().take_while(|o| mesh_of(o).as_deref() == Some(mesh.as_str())).count()
+        });
+        if parts > 1 {
+            let tris: usize = scene.lights[i..i + parts].iter().map(triangles).sum();
+            outln!("    {} ({parts} area lights, one per part, {tris} triangles)", mesh_of(l).unwrap_or_default());
+        } else {
+            let kind = match &l.kind {
+                veach::scene::LightKind::Area { .. } => format!("area, {} triangles", triangles(l)),
+                veach::scene::LightKind::Point { .. } => "point".into(),
+                veach::scene::LightKind::Spot { .. } => "spot".into(),
+                veach::scene::LightKind::Directional { .. } => "directional".into(),
+            };
+            outln!("    {} ({kind})", l.name);
+        }
+        i += parts;
     }
     if !scene.textures.is_empty() {
         outln!("  textures: {}", scene.textures.len());
