@@ -63,6 +63,20 @@ const fn config(
     }
 }
 
+/// |m_a − m_b| / sqrt(σ²_a + σ²_b) of two region means in channel `ch`; regions black in both
+/// (σ = 0) must agree exactly (0, else infinity).
+fn z_score(a: &RegionEstimate, b: &RegionEstimate, ch: usize) -> f64 {
+    let sigma = (a.var[ch] + b.var[ch]).sqrt();
+    let diff = (a.mean[ch] - b.mean[ch]).abs();
+    if sigma > 0.0 {
+        diff / sigma
+    } else if diff == 0.0 {
+        0.0
+    } else {
+        f64::INFINITY
+    }
+}
+
 /// Compares each config with the reference over `block`×`block` regions, per colour channel.
 /// The statistic |m_s − m_ref| / sqrt(σ²_s + σ²_ref) is bounded by the Bonferroni z for all
 /// comparisons of the test at family-wise significance 1e-3.
@@ -108,16 +122,7 @@ fn check_scene(scene_name: &str, width: u32, height: u32, block: u32, reference:
                 let a = region(&out, x0, y0, x0 + block, y0 + block);
                 let r = region(&reference_out, x0, y0, x0 + block, y0 + block);
                 for ch in 0..3 {
-                    let sigma = (a.var[ch] + r.var[ch]).sqrt();
-                    let diff = (a.mean[ch] - r.mean[ch]).abs();
-                    // Regions that are black in both (sigma = 0) must agree exactly.
-                    let score = if sigma > 0.0 {
-                        diff / sigma
-                    } else if diff == 0.0 {
-                        0.0
-                    } else {
-                        f64::INFINITY
-                    };
+                    let score = z_score(&a, &r, ch);
                     worst = worst.max(score);
                     if score > z {
                         failed = true;
@@ -513,16 +518,7 @@ fn a_curved_light_split_into_parts_renders_what_it_does_whole() {
                 let (x, y) = (rx * block, ry * block);
                 let (a, b) = (region(&out, x, y, x + block, y + block), region(&whole_out, x, y, x + block, y + block));
                 for ch in 0..3 {
-                    let sigma = (a.var[ch] + b.var[ch]).sqrt();
-                    let diff = (a.mean[ch] - b.mean[ch]).abs();
-                    // Regions black in both (sigma = 0) must agree exactly.
-                    let score = if sigma > 0.0 {
-                        diff / sigma
-                    } else if diff == 0.0 {
-                        0.0
-                    } else {
-                        f64::INFINITY
-                    };
+                    let score = z_score(&a, &b, ch);
                     worst = worst.max(score);
                     if score > z {
                         failures.push(format!(
