@@ -93,7 +93,8 @@ impl Material {
 
 #[derive(Clone, Debug)]
 pub enum LightKind {
-    /// The emissive triangles of one mesh primitive instance; radiance comes from the material.
+    /// The emissive triangles of one mesh primitive instance, or of one part of a curved one
+    /// (`light_shape::light_parts`); radiance comes from the material.
     Area { triangles: Vec<u32>, radiance: Vec3, double_sided: bool },
     /// Radiant intensity in W/sr.
     Point { position: Vec3, intensity: Vec3 },
