@@ -34,15 +34,17 @@ pub fn info(path: &Path) -> Result<()> {
     };
     // The parts of a curved mesh (lights named "MESH part K": light_shape::light_parts) on one line.
     let mesh_of = |l: &veach::scene::Light| l.name.rsplit_once(" part ").map(|(mesh, _)| mesh.to_owned());
-    let mut i = 0;
-    while i < scene.lights.len() {
-        let l = &scene.lights[i];
-        let parts = mesh_of(l).map_or(1, |mesh| {
-            scene.lights[i..].iter().take_while(|o| mesh_of(o).as_deref() == Some(mesh.as_str())).count()
-        });
-        if parts > 1 {
-            let tris: usize = scene.lights[i..i + parts].iter().map(triangles).sum();
-            outln!("    {} ({parts} area lights, one per part, {tris} triangles)", mesh_of(l).unwrap_or_default());
+    let same_mesh =
+        |a: &veach::scene::Light, b: &veach::scene::Light| mesh_of(a).is_some_and(|m| mesh_of(b) == Some(m));
+    for group in scene.lights.chunk_by(same_mesh) {
+        let l = &group[0];
+        if group.len() > 1 {
+            let tris: usize = group.iter().map(triangles).sum();
+            outln!(
+                "    {} ({} area lights, one per part, {tris} triangles)",
+                mesh_of(l).unwrap_or_default(),
+                group.len()
+            );
         } else {
             let kind = match &l.kind {
                 veach::scene::LightKind::Area { .. } => format!("area, {} triangles", triangles(l)),
@@ -52,7 +54,6 @@ pub fn info(path: &Path) -> Result<()> {
             };
             outln!("    {} ({kind})", l.name);
         }
-        i += parts;
     }
     if !scene.textures.is_empty() {
         outln!("  textures: {}", scene.textures.len());

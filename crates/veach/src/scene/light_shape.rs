@@ -26,13 +26,17 @@ pub struct AreaLightShape {
 }
 
 pub fn area_light_shape(scene: &Scene, triangles: &[u32]) -> AreaLightShape {
-    let corners = triangle_corners(scene, triangles);
+    area_light_shape_of(&triangle_corners(scene, triangles))
+}
+
+/// The same, from the light's triangles' corners.
+pub fn area_light_shape_of(corners: &[[Vec3; 3]]) -> AreaLightShape {
     let (_, radius) = bounding_sphere(corners.iter().flatten().copied());
-    let convex = is_convex(&corners);
-    let parallelogram = parallelogram_corner(&corners);
+    let convex = is_convex(corners);
+    let parallelogram = parallelogram_corner(corners);
     AreaLightShape {
         convex,
-        round: convex && is_round(&corners, radius),
+        round: convex && is_round(corners, radius),
         parallelogram,
         rectangle: parallelogram.is_some_and(|k| is_rectangle(&corners[0], k)),
     }
@@ -65,11 +69,7 @@ pub const MAX_SPLIT_TRIANGLES: usize = 1 << 16;
 /// facing away. pbrt-v4 makes every triangle of an emissive mesh a light for the same reason.
 pub fn light_parts(corners: &[[Vec3; 3]]) -> Vec<std::ops::Range<usize>> {
     let whole = std::iter::once(0..corners.len()).collect();
-    if corners.len() > MAX_SPLIT_TRIANGLES || is_flat(corners) {
-        return whole;
-    }
-    let (_, radius) = bounding_sphere(corners.iter().flatten().copied());
-    if is_convex(corners) && is_round(corners, radius) {
+    if corners.len() > MAX_SPLIT_TRIANGLES || is_flat(corners) || area_light_shape_of(corners).round {
         return whole;
     }
     let mut parts = Vec::new();
