@@ -21,6 +21,9 @@ override LIGHT_SELECTION: u32 = 255u;
 // The scene has exactly one light: every light index is 0, read as a constant (lights.wgsl's
 // light_at), where lavapipe gathers a record at a run-time index lane by lane.
 override SINGLE_LIGHT: bool = false;
+// The light tree's nodes may have lit boxes (frame.light_tree_lit_boxes; light_tree.wgsl,
+// lit_factor): false where the scene's have none, or lights are not chosen by the tree.
+override LIT_BOXES: bool = true;
 // Light samples may pick directions in emitter triangles' solid angle (frame.light_sampling ==
 // LIGHT_SAMPLING_SOLID_ANGLE); false: by area only.
 override SOLID_ANGLE_SAMPLING: bool = true;

@@ -104,6 +104,9 @@ struct FrameParams {
     // (light_tree.wgsl).
     light_tree_nodes: u32,
     directional_lights: u32,
+    // 1: the tree's array holds each tree node's lit box after the directional leaves
+    // (light_tree.wgsl, lit_factor).
+    light_tree_lit_boxes: u32,
 }
 
 // A node of the 4-wide BVH, 64 bytes (crates/veach/src/gpu/bvh_nodes.rs): up to four children's

@@ -92,12 +92,29 @@ fn light_bounds_importance(b: NodeBounds, p: vec3f, n: vec3f) -> f32 {
     return b.phi * cos_p * cos_pi / d2;
 }
 
-// The first of two children's probability at the point: its share of their importance, or of
-// their power where both importances are zero (or underflow), so that every light with power
-// keeps a positive probability wherever the estimate fails (light_tree.rs, first_child_share).
-fn first_child_share(a: LightTreeNode, b: LightTreeNode) -> f32 {
-    let ia = light_bounds_importance(node_bounds(a), tree_point, tree_normal);
-    let ib = light_bounds_importance(node_bounds(b), tree_point, tree_normal);
+// How much of its importance a node keeps at a point outside its lit box: none, since its
+// lights light nothing there (light_tree.rs).
+const LIGHT_OUTSIDE_LIT_BOX: f32 = 0.0;
+
+// Node i's importance factor at the tree point: LIGHT_OUTSIDE_LIT_BOX outside the box around
+// every point its lights light (crate::lit_boxes), else 1. The boxes follow the directional
+// leaves, one per tree node, encoded as light_tree.rs's lit_box_node says.
+fn lit_factor(i: u32) -> f32 {
+    if !LIT_BOXES || frame.light_tree_lit_boxes == 0u {
+        return 1.0;
+    }
+    let b = light_tree_node(frame.light_tree_nodes + frame.directional_lights + i);
+    let inside = all(tree_point >= b.centre) && all(tree_point <= vec3f(b.radius, b.phi, bitcast<f32>(b.axis)));
+    return select(LIGHT_OUTSIDE_LIT_BOX, 1.0, inside);
+}
+
+// The first of two children (nodes i and i + 1) at the point: its share of their importance,
+// each times its lit_factor, or of their power where both are zero (or underflow), so that every
+// light with power keeps a positive probability wherever the estimate fails (light_tree.rs,
+// first_child_share).
+fn first_child_share(a: LightTreeNode, b: LightTreeNode, i: u32) -> f32 {
+    let ia = light_bounds_importance(node_bounds(a), tree_point, tree_normal) * lit_factor(i);
+    let ib = light_bounds_importance(node_bounds(b), tree_point, tree_normal) * lit_factor(i + 1u);
     if ia + ib > 0.0 {
         return ia / (ia + ib);
     }
@@ -116,7 +133,7 @@ fn tree_step(node: LightTreeNode) -> TreeStep {
     let i = node.child_or_light & LIGHT_TREE_INDEX;
     let first = light_tree_node(i);
     let second = light_tree_node(i + 1u);
-    return TreeStep(first, second, first_child_share(first, second));
+    return TreeStep(first, second, first_child_share(first, second, i));
 }
 
 // The root node, at index 0. The index is read from frame (no tree has 2^32 - 1 nodes) rather

@@ -476,6 +476,23 @@ fn info_lists_a_split_mesh_light_on_one_line() {
     assert!(!text.contains(" part 1"), "{text}");
 }
 
+/// `veach render` says when a light is sealed in a closed surface, which the light tree then
+/// leaves out of light samples outside it: the stress scene `degenerate` has one; the Cornell box
+/// none.
+#[test]
+fn render_names_lights_sealed_in_closed_surfaces() {
+    let path = out_dir().join("sealed-degenerate.gltf");
+    veach_scenes::stress::stress_scene("degenerate").unwrap().write(&path).unwrap();
+    for (scene, sealed) in [(path.to_str().unwrap().to_owned(), true), (assets("cornell-box.gltf"), false)] {
+        let image = out_dir().join("sealed.png");
+        let o =
+            veach(&["render", &scene, "-o", image.to_str().unwrap(), "--width", "16", "--height", "16", "--spp", "1"]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let said = stderr(&o).contains("1 light sealed in a closed surface: no light samples outside it");
+        assert_eq!(said, sealed, "{scene}: {}", stderr(&o));
+    }
+}
+
 /// Every pixel of a written image has the same camera samples, however the render stops: a time
 /// limit far shorter than one pass finishes the pass (rows left black before), and the header and
 /// --stats say how many samples the image holds.

@@ -674,13 +674,14 @@ fn light_selection_matches_its_probabilities() {
     }
 }
 
-/// The light tree's choice at a shading point (SELECT_TREE): 40 lights of every kind (quads in
-/// several orientations, one two-sided, points, spots, a directional light and one without
-/// power) seen from three points and normals. At each, the frequencies must fit the probabilities
-/// the walk reports (chi-square, as above); the walk's probability must equal the one retraced
-/// down the light's path for MIS weights (the same float operations: 1e-6 relative) and the
-/// host's copy of the tree (`LightTree::pmf`, 1e-4 relative: f32 rounding along ~6 levels); the
-/// host's probabilities of all lights sum to 1; the light without power is never chosen.
+/// The light tree's choice at a shading point (SELECT_TREE): 41 lights of every kind (quads in
+/// several orientations, one two-sided, one sealed in a closed box, points, spots, a directional
+/// light and one without power) seen from four points and normals, one of them inside the box.
+/// At each, the frequencies must fit the probabilities the walk reports (chi-square, as above);
+/// the walk's probability must equal the one retraced down the light's path for MIS weights (the
+/// same float operations: 1e-6 relative) and the host's copy of the tree (`LightTree::pmf`, 1e-4
+/// relative: f32 rounding along ~6 levels); the host's probabilities of all lights sum to 1; the
+/// light without power is never chosen, nor the sealed light outside its box (its lit box).
 #[test]
 fn the_light_tree_chooses_lights_with_the_probabilities_it_reports() {
     let mut rng = veach_scenes::SplitMix64(5);
@@ -709,11 +710,28 @@ fn the_light_tree_chooses_lights_with_the_probabilities_it_reports() {
     }
     g.punctual_light("sun", Punctual::Directional, Vec3::splat(2.0), Vec3::ZERO, Vec3::new(0.1, -1.0, 0.2));
     n_lights += 1;
+    let walls = g.material(&MaterialDesc::lambert("walls", Vec3::splat(0.5)));
+    let corners =
+        [Vec3::new(2.5, 0.0, 2.5), Vec3::new(3.0, 0.0, 2.5), Vec3::new(3.0, 0.0, 3.0), Vec3::new(2.5, 0.0, 3.0)];
+    g.add_mesh("closed box", &MeshData::prism(corners, 0.5), walls, glam::Mat4::IDENTITY);
+    let sealed = g.material(&MaterialDesc::emitter("sealed", Vec3::splat(1000.0)));
+    let c = Vec3::new(2.75, 0.3, 2.75);
+    let (t, b) = (Vec3::X * 0.05, Vec3::Z * 0.05);
+    g.add_mesh(
+        "sealed",
+        &MeshData::quad(c - t - b, c + t - b, c + t + b, c - t + b, -Vec3::Y),
+        sealed,
+        glam::Mat4::IDENTITY,
+    );
+    n_lights += 1;
     let host_scene = load(&g, "chi2-light-tree");
     let scene = upload(&host_scene);
+    assert!(scene.light_tree_lit_boxes(), "the sealed light has no lit box");
+    let sealed = host_scene.lights.iter().position(|l| l.name.starts_with("sealed")).unwrap();
     let tree = veach::gpu::scene_buffers::scene_light_tree(
         &host_scene,
         &veach::gpu::scene_buffers::selection_powers(&host_scene),
+        &veach::bvh::build_bvh(&host_scene.triangles),
     );
     let directional: Vec<bool> =
         host_scene.lights.iter().map(|l| matches!(l.kind, veach::scene::LightKind::Directional { .. })).collect();
@@ -725,11 +743,14 @@ fn the_light_tree_chooses_lights_with_the_probabilities_it_reports() {
         (Vec3::new(0.0, 0.0, 0.0), Vec3::Y),
         (Vec3::new(1.5, 0.2, -1.0), Vec3::new(-1.0, 1.0, 0.3).normalize()),
         (Vec3::new(-1.0, 1.5, 1.0), Vec3::new(0.2, -1.0, 0.1).normalize()),
+        (Vec3::new(2.7, 0.0, 2.8), Vec3::Y),
     ];
+    let in_box = |p: Vec3| p.cmpge(Vec3::new(2.5, 0.0, 2.5)).all() && p.cmple(Vec3::new(3.0, 0.5, 3.0)).all();
     for (k, (point, normal)) in views.into_iter().enumerate() {
         let host: Vec<f64> = (0..n_lights).map(|i| tree.pmf(i as u32, directional[i], point, normal) as f64).collect();
         let sum: f64 = host.iter().sum();
         assert!((sum - 1.0).abs() < 1e-4, "view {k}: the host's probabilities sum to {sum}");
+        assert_eq!(host[sealed] > 0.0, in_box(point), "view {k}: the sealed light's probability {}", host[sealed]);
         let params = TestParams {
             routine: routine::SELECT_LIGHT,
             count: SAMPLES,
@@ -739,8 +760,12 @@ fn the_light_tree_chooses_lights_with_the_probabilities_it_reports() {
             ..Default::default()
         };
         let (light_tree_nodes, directional_lights) = scene.light_tree_counts();
-        let frame =
-            FrameParams { light_tree_nodes, directional_lights, ..frame(n_lights as u32, layout::SELECT_TREE, 0) };
+        let frame = FrameParams {
+            light_tree_nodes,
+            directional_lights,
+            light_tree_lit_boxes: scene.light_tree_lit_boxes() as u32,
+            ..frame(n_lights as u32, layout::SELECT_TREE, 0)
+        };
         let out = kernel().run(&scene, &frame, &params, &[], 1).unwrap();
         let mut observed = vec![0.0; n_lights];
         for [index, retraced, walked, _] in out {

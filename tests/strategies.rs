@@ -543,6 +543,76 @@ fn a_curved_light_split_into_parts_renders_what_it_does_whole() {
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
+/// A light sealed in a closed box gets no light samples outside the box (its lit box,
+/// `veach::lit_boxes`), and that leaves the image unbiased: the stress scene `degenerate`, whose
+/// camera sees the box from outside, renders the expectation it has without the sealed light at
+/// all, with MIS at `veach render`'s defaults and with light samples alone (lights by the tree),
+/// region by region within the Bonferroni z of all comparisons at family-wise significance 1e-3
+/// (σ² = the two means' variances, as above).
+#[test]
+fn a_sealed_light_left_out_of_light_samples_outside_its_box_stays_unbiased() {
+    let sealed = veach::load_gltf(std::path::Path::new(&stress_scene_file("degenerate"))).unwrap();
+    let without = {
+        let mut s = sealed.clone();
+        s.lights.retain(|l| !l.name.starts_with("sealed light"));
+        assert_eq!(s.lights.len() + 1, sealed.lights.len());
+        s
+    };
+    let camera = sealed.camera(None).unwrap();
+    let (width, block) = (24u32, 6u32);
+    let settings = |strategy: Strategy, seed: u32| RenderSettings {
+        width,
+        height: width,
+        spp: 256,
+        strategy,
+        light_samples: 1,
+        brdf_samples: if strategy == Strategy::Light { 0 } else { 1 },
+        seed,
+        sampler: Sampler::Independent,
+        ..RenderSettings::recommended()
+    };
+    let sealed_gpu = upload(&sealed);
+    assert!(sealed_gpu.light_tree_lit_boxes(), "the sealed light has no lit box");
+    let without_gpu = upload(&without);
+    let strategies = [Strategy::Mis, Strategy::Light];
+    let regions = (width / block) * (width / block);
+    let z = bonferroni_z(1e-3, strategies.len() * regions as usize * 3);
+    let mut failures = Vec::new();
+    for (k, strategy) in strategies.into_iter().enumerate() {
+        let out = render(&sealed_gpu, &settings(strategy, 20 + k as u32), &camera);
+        let reference = render(&without_gpu, &settings(strategy, 30 + k as u32), &camera);
+        assert_eq!(out.nonfinite_samples, 0);
+        let mut worst: f64 = 0.0;
+        for ry in 0..width / block {
+            for rx in 0..width / block {
+                let (x, y) = (rx * block, ry * block);
+                let (a, b) = (region(&out, x, y, x + block, y + block), region(&reference, x, y, x + block, y + block));
+                for ch in 0..3 {
+                    let score = z_score(&a, &b, ch);
+                    worst = worst.max(score);
+                    if score > z {
+                        failures.push(format!(
+                            "{strategy:?}: region ({rx},{ry}) channel {ch}: {:.5} sealed vs {:.5} without, |Δ|/σ = {score:.2} > {z:.2}",
+                            a.mean[ch], b.mean[ch]
+                        ));
+                    }
+                }
+            }
+        }
+        eprintln!("sealed light, {strategy:?}: worst |Δ|/σ = {worst:.2} (bound {z:.2})");
+        if worst > z {
+            let (a, b) = (out.mean(), reference.mean());
+            let diff = a.iter().zip(&b).map(|(p, q)| [0, 1, 2].map(|c| (p[c] - q[c]).abs())).collect();
+            let dir = write_failure_images(
+                "sealed-light",
+                &[("sealed", width, width, a), ("without", width, width, b), ("difference", width, width, diff)],
+            );
+            failures.push(format!("images in {}", dir.display()));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
 /// Solid-angle sampling (these scenes' lights are rectangles: Ureña et al. 2013's spherical
 /// rectangles) converges to the area-sampled MIS reference: on the Cornell box, and on the stress
 /// scenes where it matters, a light touching the floor (r² → 0 at the contact edge) and one seen

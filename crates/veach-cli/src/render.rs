@@ -12,7 +12,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
-use veach::{GpuContext, RenderSettings, Renderer, Strategy};
+use veach::{GpuContext, LightSelection, RenderSettings, Renderer, Strategy};
 
 #[derive(Clone, Copy, PartialEq, Eq, ValueEnum)]
 enum AovArg {
@@ -337,6 +337,18 @@ pub fn render(args: RenderArgs) -> Result<()> {
             ""
         }
     ));
+    if gpu_scene.sealed_lights() > 0
+        && settings.strategy.samples_lights()
+        && settings.light_selection == LightSelection::Tree
+    {
+        say(format!(
+            "{} sealed in a closed surface: no light samples outside it",
+            match gpu_scene.sealed_lights() {
+                1 => "1 light".to_string(),
+                n => format!("{n} lights"),
+            }
+        ));
+    }
 
     let bar = if args.quiet { ProgressBar::hidden() } else { ProgressBar::new(1000) };
     bar.set_style(

@@ -47,6 +47,8 @@ pub struct LightKinds {
     pub delta: bool,
     /// The scene has exactly one light (`SceneFeatures::single_light`): read at a constant index.
     pub single: bool,
+    /// The light tree's nodes may have lit boxes (`LightTree::lit`): the walk reads them.
+    pub lit_boxes: bool,
 }
 
 /// The BSDF lobes the kernel has code for.
@@ -156,6 +158,8 @@ pub struct UploadedScene<'a> {
     pub baked: Option<&'a Arc<BakedTriangles>>,
     /// It has an emitters' grid.
     pub emitter_grid: bool,
+    /// Its light tree's nodes have lit boxes.
+    pub lit_boxes: bool,
 }
 
 /// What a plan needs to know of the adapter (`GpuContext::profile`).
@@ -193,7 +197,7 @@ impl KernelPlan {
         KernelPlan {
             strategy: None,
             light_selection: None,
-            lights: LightKinds { area: true, delta: true, single: false },
+            lights: LightKinds { area: true, delta: true, single: false, lit_boxes: true },
             lobes: Lobes { glossy: true, mirrors: true },
             techniques: LightTechniques {
                 solid_angle: true,
@@ -232,6 +236,9 @@ impl KernelPlan {
         };
         // Every kernel, generic or not, takes the stack its scene's BVH needs.
         plan.bvh_stack = scene.bvh_stack;
+        if settings.specialise {
+            plan.lights.lit_boxes = scene.lit_boxes && plan.light_selection == Some(LightSelection::Tree);
+        }
         plan.driver.workgroup = adapter.workgroups[plan.wavefront as usize];
         let mut footprints = None;
         if settings.specialise {
@@ -260,6 +267,8 @@ impl KernelPlan {
                 area: features.area_lights,
                 delta: features.delta_lights(),
                 single: features.single_light,
+                // Known once the scene is uploaded (`for_render`).
+                lit_boxes: true,
             },
             lobes: Lobes { glossy: features.any_glossy, mirrors: features.any_mirror },
             techniques: LightTechniques {
@@ -390,6 +399,7 @@ impl KernelPlan {
             ("PARALLELOGRAM_LIGHTS", flag(t.parallelograms)),
             ("TRIANGLE_PICKS", flag(t.triangle_picks)),
             ("SINGLE_LIGHT", flag(self.lights.single)),
+            ("LIT_BOXES", flag(self.lights.lit_boxes)),
             ("EMITTER_LIST", flag(d.emitter_grid || d.baked.as_ref().is_some_and(|b| b.emitter_list()))),
             ("CAMERA_LIST", flag(d.camera_list)),
             ("CONTROL_VARIATE", flag(t.control_variate)),
@@ -680,7 +690,14 @@ mod tests {
         use glam::Vec3;
         let features = SceneFeatures { area_lights: true, many_lights: true, ..SceneFeatures::default() };
         let uniform = UniformArrays { bvh_nodes: 64, ..UniformArrays::default() };
-        let scene = UploadedScene { features: &features, bvh_stack: 160, uniform, baked: None, emitter_grid: true };
+        let scene = UploadedScene {
+            features: &features,
+            bvh_stack: 160,
+            uniform,
+            baked: None,
+            emitter_grid: true,
+            lit_boxes: false,
+        };
         let camera = Camera::look_at("c", Vec3::Z, Vec3::ZERO, Vec3::Y, 0.8);
         let profile = |auto, cpu| AdapterProfile {
             auto,

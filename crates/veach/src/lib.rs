@@ -15,6 +15,7 @@ pub mod headless;
 pub mod image_io;
 pub mod kernel_plan;
 pub mod light_tree;
+pub mod lit_boxes;
 pub mod output;
 pub mod render;
 pub mod scene;

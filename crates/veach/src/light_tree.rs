@@ -12,12 +12,14 @@
 use crate::gpu::layout::{
     LIGHT_TREE_INDEX, LIGHT_TREE_LEAF, LIGHT_TREE_TWO_SIDED, LightTreeNode, decode_normal, encode_normal,
 };
+use crate::lit_boxes::LitBox;
 use glam::{Quat, Vec3};
 use std::f32::consts::PI;
 
 /// What the tree knows of a light or a subtree: a box around its emitters, its power `phi`, and
 /// the directions it emits into: normals within `cos_o` of `axis`, each emitting up to `cos_e`
-/// around itself (pbrt-v4's `LightBounds`).
+/// around itself (pbrt-v4's `LightBounds`); and where known, a box around every point it lights
+/// (`crate::lit_boxes`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LightBounds {
     pub min: Vec3,
@@ -27,6 +29,7 @@ pub struct LightBounds {
     pub cos_o: f32,
     pub cos_e: f32,
     pub two_sided: bool,
+    pub lit: Option<LitBox>,
 }
 
 /// A cone of directions: `axis` and the cosine of its half-angle (-1: every direction).
@@ -97,6 +100,10 @@ impl LightBounds {
             cos_o: cone.cos_theta,
             cos_e: self.cos_e.min(other.cos_e),
             two_sided: self.two_sided || other.two_sided,
+            lit: match (self.lit, other.lit) {
+                (Some(a), Some(b)) => Some(LitBox { min: a.min.min(b.min), max: a.max.max(b.max) }),
+                _ => None,
+            },
         }
     }
 
@@ -123,6 +130,7 @@ pub struct NodeBounds {
     pub sin_o: f32,
     pub cos_e: f32,
     pub two_sided: bool,
+    pub lit: Option<LitBox>,
 }
 
 impl From<&LightBounds> for NodeBounds {
@@ -136,6 +144,7 @@ impl From<&LightBounds> for NodeBounds {
             sin_o: safe_sqrt(1.0 - b.cos_o * b.cos_o),
             cos_e: b.cos_e,
             two_sided: b.two_sided,
+            lit: b.lit,
         }
     }
 }
@@ -199,12 +208,21 @@ pub fn area_light_bounds(
         Some(acc.map_or(c, |a| a.union(c)))
     });
     let cone = cone.unwrap_or(DirectionCone::ENTIRE_SPHERE);
-    LightBounds { min, max, phi, axis: cone.axis, cos_o: cone.cos_theta, cos_e: 0.0, two_sided }
+    LightBounds { min, max, phi, axis: cone.axis, cos_o: cone.cos_theta, cos_e: 0.0, two_sided, lit: None }
 }
 
 /// A point light: every direction (θ_o = π, θ_e = π/2, as pbrt-v4's `PointLight::Bounds`).
 pub fn point_light_bounds(position: Vec3, phi: f32) -> LightBounds {
-    LightBounds { min: position, max: position, phi, axis: Vec3::Z, cos_o: -1.0, cos_e: 0.0, two_sided: false }
+    LightBounds {
+        min: position,
+        max: position,
+        phi,
+        axis: Vec3::Z,
+        cos_o: -1.0,
+        cos_e: 0.0,
+        two_sided: false,
+        lit: None,
+    }
 }
 
 /// A spot light: directions within its outer cone's angle of its axis (θ_o = 0, θ_e = the outer
@@ -219,6 +237,7 @@ pub fn spot_light_bounds(position: Vec3, direction: Vec3, cos_outer: f32, phi: f
         cos_o: 1.0,
         cos_e: cos_outer.clamp(-1.0, 1.0),
         two_sided: false,
+        lit: None,
     }
 }
 
@@ -232,6 +251,38 @@ pub struct LightTree {
     pub tree_nodes: u32,
     pub directional: u32,
     pub trails: Vec<u32>,
+    /// Each tree node's lit box (`None`: it may light anything). Where any node has one, `nodes`
+    /// holds after the directional leaves one more element per tree node: its box, encoded by
+    /// `lit_box_node`.
+    pub lit: Vec<Option<LitBox>>,
+    /// The lights in the tree that have a lit box.
+    pub sealed_lights: u32,
+}
+
+/// How much of its importance a node keeps at a point outside its lit box: none, since its lights
+/// light nothing there (`crate::lit_boxes`). LIGHT_OUTSIDE_LIT_BOX in shaders/light_tree.wgsl.
+pub const LIGHT_OUTSIDE_LIT_BOX: f32 = 0.0;
+
+/// A node's importance factor at p: 1 inside its lit box (or without one), else
+/// `LIGHT_OUTSIDE_LIT_BOX`.
+pub fn lit_factor(lit: &Option<LitBox>, p: Vec3) -> f32 {
+    match lit {
+        Some(b) if !b.contains(p) => LIGHT_OUTSIDE_LIT_BOX,
+        _ => 1.0,
+    }
+}
+
+/// A lit box as light_tree.wgsl's `lit_factor` reads it, in a node's place: `centre` the low
+/// corner, `radius`, `phi` and `axis`'s bits the high one; without a box, the whole f32 range.
+fn lit_box_node(lit: &Option<LitBox>) -> LightTreeNode {
+    let b = lit.unwrap_or(LitBox { min: Vec3::splat(-f32::MAX), max: Vec3::splat(f32::MAX) });
+    LightTreeNode {
+        centre: b.min.to_array(),
+        radius: b.max.x,
+        phi: b.max.y,
+        axis: b.max.z.to_bits(),
+        ..Default::default()
+    }
 }
 
 pub const NOT_IN_TREE: u32 = u32::MAX;
@@ -251,17 +302,25 @@ pub fn build_light_tree(bounds: &[Option<LightBounds>], directional: &[u32]) -> 
         .enumerate()
         .filter_map(|(i, b)| b.filter(|b| b.phi > 0.0 && b.phi.is_finite()).map(|b| (i as u32, b)))
         .collect();
+    let sealed_lights = items.iter().filter(|(_, b)| b.lit.is_some()).count() as u32;
     let mut nodes = Vec::new();
+    let mut lit = Vec::new();
     let mut trails = vec![NOT_IN_TREE; bounds.len()];
     if !items.is_empty() {
         nodes.push(LightTreeNode::default());
-        build(&mut items, 0, 0, 0, &mut nodes, &mut trails);
+        lit.push(None);
+        build(&mut items, 0, 0, 0, &mut Built { nodes: &mut nodes, lit: &mut lit, trails: &mut trails });
     }
     let tree_nodes = nodes.len() as u32;
     for &light in directional {
         nodes.push(LightTreeNode { child_or_light: light | LIGHT_TREE_LEAF, ..Default::default() });
     }
-    LightTree { nodes, tree_nodes, directional: directional.len() as u32, trails }
+    if lit.iter().any(Option::is_some) {
+        nodes.extend(lit.iter().map(lit_box_node));
+    } else {
+        lit.clear();
+    }
+    LightTree { nodes, tree_nodes, directional: directional.len() as u32, trails, lit, sealed_lights }
 }
 
 /// A cosine as the node stores it: unorm16 of (cos + 1) / 2, rounded down (a wider cone).
@@ -315,33 +374,34 @@ fn union_all(items: &[(u32, LightBounds)]) -> LightBounds {
     items[1..].iter().fold(items[0].1, |acc, (_, b)| acc.union(b))
 }
 
+/// The tree as `build` fills it: nodes and their lit boxes side by side, and the lights' paths.
+struct Built<'a> {
+    nodes: &'a mut Vec<LightTreeNode>,
+    lit: &'a mut Vec<Option<LitBox>>,
+    trails: &'a mut [u32],
+}
+
 /// Fills node `at` with the subtree over `items`, at `depth` along `trail`.
-fn build(
-    items: &mut [(u32, LightBounds)],
-    at: usize,
-    depth: u32,
-    trail: u32,
-    nodes: &mut Vec<LightTreeNode>,
-    trails: &mut [u32],
-) {
+fn build(items: &mut [(u32, LightBounds)], at: usize, depth: u32, trail: u32, out: &mut Built) {
     let all = union_all(items);
     let mut node = node_of(&all);
+    out.lit[at] = all.lit;
     if items.len() == 1 {
         node.child_or_light |= items[0].0 | LIGHT_TREE_LEAF;
-        nodes[at] = node;
-        trails[items[0].0 as usize] = trail;
+        out.nodes[at] = node;
+        out.trails[items[0].0 as usize] = trail;
         return;
     }
     let mid = split(items, depth);
-    let first_child = nodes.len();
-    nodes.push(LightTreeNode::default());
-    nodes.push(LightTreeNode::default());
+    let first_child = out.nodes.len();
+    out.nodes.extend([LightTreeNode::default(); 2]);
+    out.lit.extend([None; 2]);
     node.child_or_light |= first_child as u32;
-    nodes[at] = node;
+    out.nodes[at] = node;
     assert!(depth + 1 < MAX_DEPTH, "light tree deeper than its 32-bit paths");
     let (left, right) = items.split_at_mut(mid);
-    build(left, first_child, depth + 1, trail, nodes, trails);
-    build(right, first_child + 1, depth + 1, trail | (1 << depth), nodes, trails);
+    build(left, first_child, depth + 1, trail, out);
+    build(right, first_child + 1, depth + 1, trail | (1 << depth), out);
 }
 
 /// Where to split `items` (sorted in place so that the split is an index): the cheapest of the
@@ -410,6 +470,7 @@ impl LightTree {
             sin_o: safe_sqrt(1.0 - cos_o * cos_o),
             cos_e: decode_cosine(n.cosines >> 16),
             two_sided: n.child_or_light & LIGHT_TREE_TWO_SIDED != 0,
+            lit: self.lit.get(index).copied().flatten(),
         }
     }
 
@@ -441,11 +502,11 @@ impl LightTree {
     }
 }
 
-/// The first child's probability at a node: its share of the two importances, or of the two
-/// powers where both importances are zero (or underflow), so that every light with power keeps a
-/// positive probability wherever the estimate fails.
+/// The first child's probability at a node: its share of the two importances, each times its
+/// `lit_factor`, or of the two powers where both are zero (or underflow), so that every light with
+/// power keeps a positive probability wherever the estimate fails.
 pub fn first_child_share(a: &NodeBounds, b: &NodeBounds, p: Vec3, n: Vec3) -> f32 {
-    let (ia, ib) = (a.importance(p, n), b.importance(p, n));
+    let (ia, ib) = (a.importance(p, n) * lit_factor(&a.lit, p), b.importance(p, n) * lit_factor(&b.lit, p));
     if ia + ib > 0.0 { ia / (ia + ib) } else { a.phi / (a.phi + b.phi) }
 }
 

@@ -63,6 +63,9 @@ pub struct GpuScene {
     pub(crate) light_tree: wgpu::Buffer,
     pub(crate) light_tree_nodes: u32,
     pub(crate) directional_lights: u32,
+    /// The tree's array holds its nodes' lit boxes (`LightTree::lit`), for this many lights.
+    pub(crate) light_tree_lit_boxes: bool,
+    pub(crate) sealed_lights: u32,
     pub stats: SceneUploadStats,
     /// What the scene needs of the kernel.
     pub features: SceneFeatures,
@@ -90,6 +93,17 @@ impl GpuScene {
         (self.light_tree_nodes, self.directional_lights)
     }
 
+    /// Whether the light tree's array holds lit boxes (FrameParams' light_tree_lit_boxes).
+    pub fn light_tree_lit_boxes(&self) -> bool {
+        self.light_tree_lit_boxes
+    }
+
+    /// Lights sealed in closed surfaces, which the tree gives no samples outside them
+    /// (`crate::lit_boxes`).
+    pub fn sealed_lights(&self) -> u32 {
+        self.sealed_lights
+    }
+
     /// The most entries the BVH's traversal can push on its stack.
     pub fn bvh_stack_bound(&self) -> u32 {
         self.bvh_stack_bound
@@ -103,6 +117,7 @@ impl GpuScene {
             uniform: self.uniform,
             baked: self.baked.as_ref(),
             emitter_grid: self.emitter_grid.is_some(),
+            lit_boxes: self.light_tree_lit_boxes,
         }
     }
 
@@ -441,6 +456,8 @@ impl Renderer {
             light_tree,
             light_tree_nodes: arrays.light_tree.tree_nodes,
             directional_lights: arrays.light_tree.directional,
+            light_tree_lit_boxes: !arrays.light_tree.lit.is_empty(),
+            sealed_lights: arrays.light_tree.sealed_lights,
             emitter_bound: arrays.emitter_bound,
             emitter_box: arrays.emitter_box,
             bvh_stack_bound,
@@ -537,6 +554,8 @@ impl Renderer {
             light_count: scene.light_count,
             light_tree_nodes: scene.light_tree_nodes,
             directional_lights: scene.directional_lights,
+            light_tree_lit_boxes: scene.light_tree_lit_boxes as u32,
+            _pad: [0; 3],
             emitter_centre: scene.emitter_bound.0,
             emitter_radius: scene.emitter_bound.1,
             emitter_min: scene.emitter_box.0,

@@ -104,6 +104,11 @@ pub struct FrameParams {
     /// (SELECT_TREE; crate::light_tree).
     pub light_tree_nodes: u32,
     pub directional_lights: u32,
+    /// 1: the light tree's array holds its nodes' lit boxes after the directional leaves
+    /// (`LightTree::lit`).
+    pub light_tree_lit_boxes: u32,
+    /// To the struct's WGSL size, a multiple of its vec3f's alignment.
+    pub _pad: [u32; 3],
 }
 
 #[repr(C)]
@@ -381,7 +386,8 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             finish_samples,
             first_sample,
             light_tree_nodes,
-            directional_lights
+            directional_lights,
+            light_tree_lit_boxes
         }),
         layout!(LightTreeNode { centre, radius, phi, axis, cosines, child_or_light }),
         layout!(BvhNode { origin, exponents, low, lights_01, high, lights_23, children }),

@@ -9,6 +9,7 @@ use crate::features::SceneFeatures;
 use crate::light_tree::{
     LightBounds, LightTree, area_light_bounds, build_light_tree, point_light_bounds, spot_light_bounds,
 };
+use crate::lit_boxes::lit_boxes;
 use crate::scene::light_shape::{AreaLightShape, area_light_shape, bounding_sphere, point_bounds};
 use crate::scene::{LightKind, Scene, TextureRef};
 use glam::Vec3;
@@ -198,7 +199,7 @@ pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) ->
         })
         .collect();
 
-    let light_tree = scene_light_tree(scene, &powers);
+    let light_tree = scene_light_tree(scene, &powers, bvh);
     for (pick, &trail) in light_picks.iter_mut().zip(&light_tree.trails) {
         pick.tree_trail = trail;
     }
@@ -252,9 +253,11 @@ pub fn build_scene_arrays(scene: &Scene, features: &SceneFeatures, bvh: &Bvh) ->
 }
 
 /// The light tree over the scene's lights (`crate::light_tree`), each with its share of
-/// `powers` (the lights' powers, as selection by power takes them).
-pub fn scene_light_tree(scene: &Scene, powers: &[f64]) -> LightTree {
+/// `powers` (the lights' powers, as selection by power takes them) and its lit box, found by
+/// tracing rays through `bvh` (`crate::lit_boxes`).
+pub fn scene_light_tree(scene: &Scene, powers: &[f64], bvh: &Bvh) -> LightTree {
     let total: f64 = powers.iter().sum();
+    let lit = lit_boxes(scene, bvh);
     let mut directional = Vec::new();
     let light_bounds: Vec<Option<LightBounds>> = scene
         .lights
@@ -262,7 +265,7 @@ pub fn scene_light_tree(scene: &Scene, powers: &[f64]) -> LightTree {
         .enumerate()
         .map(|(li, light)| {
             let phi = if total > 0.0 { (powers[li] / total) as f32 } else { 0.0 };
-            match &light.kind {
+            let bounds = match &light.kind {
                 LightKind::Area { triangles, double_sided, .. } => {
                     let normals: Vec<Vec3> = triangles
                         .iter()
@@ -282,7 +285,8 @@ pub fn scene_light_tree(scene: &Scene, powers: &[f64]) -> LightTree {
                     directional.push(li as u32);
                     None
                 }
-            }
+            };
+            bounds.map(|b| LightBounds { lit: lit[li], ..b })
         })
         .collect();
     build_light_tree(&light_bounds, &directional)
