@@ -77,6 +77,48 @@ fn z_score(a: &RegionEstimate, b: &RegionEstimate, ch: usize) -> f64 {
     }
 }
 
+/// Two renders of one image compared region by region (`block`×`block`), each channel's z score
+/// against `z`: a line in `failures` per region off, and where any is, the two images and their
+/// difference written under `test`. `what` names the comparison, `names` the two renders.
+/// Returns the worst score.
+fn compare_renders(
+    test: &str,
+    what: &str,
+    names: [&str; 2],
+    (a, b): (&veach::RenderOutput, &veach::RenderOutput),
+    (width, block, z): (u32, u32, f64),
+    failures: &mut Vec<String>,
+) -> f64 {
+    let mut worst: f64 = 0.0;
+    for ry in 0..width / block {
+        for rx in 0..width / block {
+            let (x, y) = (rx * block, ry * block);
+            let (ra, rb) = (region(a, x, y, x + block, y + block), region(b, x, y, x + block, y + block));
+            for ch in 0..3 {
+                let score = z_score(&ra, &rb, ch);
+                worst = worst.max(score);
+                if score > z {
+                    failures.push(format!(
+                        "{what}: region ({rx},{ry}) channel {ch}: {:.5} {} vs {:.5} {}, |Δ|/σ = {score:.2} > {z:.2}",
+                        ra.mean[ch], names[0], rb.mean[ch], names[1]
+                    ));
+                }
+            }
+        }
+    }
+    eprintln!("{test}, {what}: worst |Δ|/σ = {worst:.2} (bound {z:.2})");
+    if worst > z {
+        let (ma, mb) = (a.mean(), b.mean());
+        let diff = ma.iter().zip(&mb).map(|(p, q)| [0, 1, 2].map(|c| (p[c] - q[c]).abs())).collect();
+        let dir = write_failure_images(
+            test,
+            &[(names[0], width, width, ma), (names[1], width, width, mb), ("difference", width, width, diff)],
+        );
+        failures.push(format!("images in {}", dir.display()));
+    }
+    worst
+}
+
 /// Compares each config with the reference over `block`×`block` regions, per colour channel.
 /// The statistic |m_s − m_ref| / sqrt(σ²_s + σ²_ref) is bounded by the Bonferroni z for all
 /// comparisons of the test at family-wise significance 1e-3.
@@ -512,33 +554,15 @@ fn a_curved_light_split_into_parts_renders_what_it_does_whole() {
     for (k, selection) in selections.into_iter().enumerate() {
         let out = render(&split_gpu, &settings(selection, 10 + k as u32), &camera);
         assert_eq!(out.nonfinite_samples, 0);
-        let mut worst: f64 = 0.0;
-        for ry in 0..width / block {
-            for rx in 0..width / block {
-                let (x, y) = (rx * block, ry * block);
-                let (a, b) = (region(&out, x, y, x + block, y + block), region(&whole_out, x, y, x + block, y + block));
-                for ch in 0..3 {
-                    let score = z_score(&a, &b, ch);
-                    worst = worst.max(score);
-                    if score > z {
-                        failures.push(format!(
-                            "{selection:?}: region ({rx},{ry}) channel {ch}: {:.5} split vs {:.5} whole, |Δ|/σ = {score:.2} > {z:.2}",
-                            a.mean[ch], b.mean[ch]
-                        ));
-                    }
-                }
-            }
-        }
-        eprintln!("split, {selection:?}: worst |Δ|/σ = {worst:.2} (bound {z:.2})");
-        if worst > z {
-            let (a, b) = (out.mean(), whole_out.mean());
-            let diff = a.iter().zip(&b).map(|(p, q)| [0, 1, 2].map(|c| (p[c] - q[c]).abs())).collect();
-            let dir = write_failure_images(
-                "curved-light",
-                &[("split", width, width, a), ("whole", width, width, b), ("difference", width, width, diff)],
-            );
-            failures.push(format!("images in {}", dir.display()));
-        }
+        let what = format!("{selection:?}");
+        compare_renders(
+            "curved-light",
+            &what,
+            ["split", "whole"],
+            (&out, &whole_out),
+            (width, block, z),
+            &mut failures,
+        );
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
@@ -582,33 +606,15 @@ fn a_sealed_light_left_out_of_light_samples_outside_its_box_stays_unbiased() {
         let out = render(&sealed_gpu, &settings(strategy, 20 + k as u32), &camera);
         let reference = render(&without_gpu, &settings(strategy, 30 + k as u32), &camera);
         assert_eq!(out.nonfinite_samples, 0);
-        let mut worst: f64 = 0.0;
-        for ry in 0..width / block {
-            for rx in 0..width / block {
-                let (x, y) = (rx * block, ry * block);
-                let (a, b) = (region(&out, x, y, x + block, y + block), region(&reference, x, y, x + block, y + block));
-                for ch in 0..3 {
-                    let score = z_score(&a, &b, ch);
-                    worst = worst.max(score);
-                    if score > z {
-                        failures.push(format!(
-                            "{strategy:?}: region ({rx},{ry}) channel {ch}: {:.5} sealed vs {:.5} without, |Δ|/σ = {score:.2} > {z:.2}",
-                            a.mean[ch], b.mean[ch]
-                        ));
-                    }
-                }
-            }
-        }
-        eprintln!("sealed light, {strategy:?}: worst |Δ|/σ = {worst:.2} (bound {z:.2})");
-        if worst > z {
-            let (a, b) = (out.mean(), reference.mean());
-            let diff = a.iter().zip(&b).map(|(p, q)| [0, 1, 2].map(|c| (p[c] - q[c]).abs())).collect();
-            let dir = write_failure_images(
-                "sealed-light",
-                &[("sealed", width, width, a), ("without", width, width, b), ("difference", width, width, diff)],
-            );
-            failures.push(format!("images in {}", dir.display()));
-        }
+        let what = format!("{strategy:?}");
+        compare_renders(
+            "sealed-light",
+            &what,
+            ["sealed", "without"],
+            (&out, &reference),
+            (width, block, z),
+            &mut failures,
+        );
     }
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

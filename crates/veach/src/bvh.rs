@@ -195,6 +195,47 @@ impl Bvh {
     }
 }
 
+impl Bvh {
+    /// The nearest triangle of `triangles` (the ones the tree was built over) along a ray from
+    /// `origin` along `dir`, where `hit` gives the distance to a triangle it meets: that distance
+    /// and the triangle's index. On the host, for the tests and `crate::lit_boxes`.
+    pub fn closest_hit(
+        &self,
+        triangles: &[Triangle],
+        origin: Vec3,
+        dir: Vec3,
+        hit: impl Fn(&Triangle) -> Option<f32>,
+    ) -> Option<(f32, u32)> {
+        let mut best: Option<(f32, u32)> = None;
+        let mut stack = vec![0usize];
+        while let Some(i) = stack.pop() {
+            let Some(n) = self.nodes.get(i) else { continue };
+            // Slab test, its exit widened as the kernels' (Ize 2013).
+            let (mut t0, mut t1) = (0.0f32, best.map_or(f32::INFINITY, |(b, _)| b));
+            for k in 0..3 {
+                let (a, b) = ((n.min[k] - origin[k]) / dir[k], (n.max[k] - origin[k]) / dir[k]);
+                t0 = t0.max(a.min(b));
+                t1 = t1.min(a.max(b));
+            }
+            if t0 > t1 * 1.0000004 {
+                continue;
+            }
+            if n.count == 0 {
+                stack.extend([n.first as usize, n.first as usize + 1]);
+                continue;
+            }
+            for &t in &self.order[n.first as usize..(n.first + n.count) as usize] {
+                if let Some(d) = triangles.get(t as usize).and_then(&hit)
+                    && best.is_none_or(|(b, _)| d < b)
+                {
+                    best = Some((d, t));
+                }
+            }
+        }
+        best
+    }
+}
+
 /// Half a node box's surface area (the SAH's measure of how often a ray enters it).
 pub fn half_area(n: &BvhNode) -> f32 {
     let d = [n.max[0] - n.min[0], n.max[1] - n.min[1], n.max[2] - n.min[2]];
@@ -288,36 +329,6 @@ mod tests {
         (u >= 0.0 && v >= 0.0 && u + v <= 1.0 && t > 0.0).then_some(t)
     }
 
-    fn closest_through_tree(bvh: &Bvh, tris: &[Triangle], origin: Vec3, dir: Vec3) -> Option<(f32, u32)> {
-        let mut best: Option<(f32, u32)> = None;
-        let mut stack = vec![0usize];
-        while let Some(i) = stack.pop() {
-            let n = &bvh.nodes[i];
-            // Slab test, its exit widened as the kernels' (Ize 2013).
-            let (mut t0, mut t1) = (0.0f32, f32::INFINITY);
-            for k in 0..3 {
-                let (a, b) = ((n.min[k] - origin[k]) / dir[k], (n.max[k] - origin[k]) / dir[k]);
-                t0 = t0.max(a.min(b));
-                t1 = t1.min(a.max(b));
-            }
-            if t0 > t1 * 1.0000004 {
-                continue;
-            }
-            if n.count == 0 {
-                stack.extend([n.first as usize, n.first as usize + 1]);
-                continue;
-            }
-            for &t in &bvh.order[n.first as usize..(n.first + n.count) as usize] {
-                if let Some(d) = hit(&tris[t as usize], origin, dir)
-                    && best.is_none_or(|(b, _)| d < b)
-                {
-                    best = Some((d, t));
-                }
-            }
-        }
-        best
-    }
-
     /// Where the tree over whole blades is poor, the blades' boxes are split (early split
     /// clipping): the tree keeps a blade in several leaves, each leaf's box around a part of
     /// it. Every ray must still find the closest blade that a test of all blades finds.
@@ -344,7 +355,11 @@ mod tests {
                 .enumerate()
                 .filter_map(|(i, t)| hit(t, origin, dir).map(|d| (d, i as u32)))
                 .min_by(|a, b| a.0.total_cmp(&b.0));
-            assert_eq!(closest_through_tree(&bvh, &tris, origin, dir), brute, "ray from {origin} along {dir}");
+            assert_eq!(
+                bvh.closest_hit(&tris, origin, dir, |t| hit(t, origin, dir)),
+                brute,
+                "ray from {origin} along {dir}"
+            );
             hits += brute.is_some() as u32;
         }
         assert!(hits > 1000, "only {hits} of 2000 rays hit a blade: the test checks little");

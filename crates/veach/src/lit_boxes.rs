@@ -100,7 +100,10 @@ fn probe(scene: &Scene, bvh: &Bvh, emitter: &Emitter, diagonal: f32) -> Option<P
     let mut hits = LitBox { min: Vec3::splat(f32::INFINITY), max: Vec3::splat(f32::NEG_INFINITY) };
     for k in 0..PROBE_RAYS {
         let (origin, dir) = emitter.ray(k);
-        let (t, triangle) = closest_hit(bvh, &scene.triangles, origin, dir, 1.0e-5 * diagonal)?;
+        let t_min = 1.0e-5 * diagonal;
+        let nearest =
+            bvh.closest_hit(&scene.triangles, origin, dir, |tri| intersect(tri, origin, dir).filter(|&d| d > t_min));
+        let (t, triangle) = nearest?;
         *counts.entry(triangle).or_default() += 1;
         hits.min = hits.min.min(origin + t * dir);
         hits.max = hits.max.max(origin + t * dir);
@@ -326,39 +329,6 @@ fn direction(z: f32, u_phi: f32) -> Vec3 {
     let r = (1.0 - z * z).max(0.0).sqrt();
     let phi = 2.0 * PI * u_phi;
     Vec3::new(r * phi.cos(), r * phi.sin(), z)
-}
-
-/// The distance to the nearest triangle along origin + t dir, t > t_min, and that triangle.
-fn closest_hit(bvh: &Bvh, triangles: &[Triangle], origin: Vec3, dir: Vec3, t_min: f32) -> Option<(f32, u32)> {
-    let inv = dir.recip();
-    let mut best = f32::INFINITY;
-    let mut best_triangle = 0;
-    let mut stack = vec![0usize];
-    while let Some(i) = stack.pop() {
-        let Some(n) = bvh.nodes.get(i) else { continue };
-        let t0 = (Vec3::from(n.min) - origin) * inv;
-        let t1 = (Vec3::from(n.max) - origin) * inv;
-        let near = t0.min(t1).max_element().max(0.0);
-        let far = t0.max(t1).min_element().min(best);
-        // NaN (a zero direction component on a face) counts as entering.
-        if near > far * 1.000_001 {
-            continue;
-        }
-        if n.count == 0 {
-            stack.extend([n.first as usize, n.first as usize + 1]);
-            continue;
-        }
-        for &t in &bvh.order[n.first as usize..(n.first + n.count) as usize] {
-            if let Some(d) = intersect(&triangles[t as usize], origin, dir)
-                && d > t_min
-                && d < best
-            {
-                best = d;
-                best_triangle = t;
-            }
-        }
-    }
-    best.is_finite().then_some((best, best_triangle))
 }
 
 /// Möller–Trumbore ("Fast, Minimum Storage Ray/Triangle Intersection", 1997): the distance along
