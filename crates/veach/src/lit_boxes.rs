@@ -59,8 +59,10 @@ pub fn lit_boxes(scene: &Scene, bvh: &Bvh) -> Vec<Option<LitBox>> {
             let edges = edges.get_or_insert_with(|| EdgeMap::new(&scene.triangles));
             let mut tried = Vec::new();
             // Grown past the rounding of the kernels' hit points, so that the inside of the
-            // surface stays inside the box.
-            let margin = Vec3::splat(1.0e-4 * diagonal);
+            // surface stays inside the box: a ten-thousandth of the scene, and at least 8-16 f32
+            // steps at its largest coordinate (a scene far from the origin).
+            let magnitude = bounds.min.abs().max(bounds.max.abs()).max_element();
+            let margin = Vec3::splat((1.0e-4 * diagonal).max(1.0e-6 * magnitude));
             for t in probe.triangles {
                 if tried.len() == MAX_CANDIDATES {
                     break;
@@ -454,6 +456,23 @@ mod tests {
             triangles.iter_mut().for_each(|t| *t -= 2);
         }
         assert_eq!(boxes(&scene)[0], None);
+    }
+
+    #[test]
+    fn far_from_the_origin_the_box_still_holds_the_inside_of_its_surface() {
+        // The box scene moved to 1e5, where an f32 step is 1/128: the kernels' hit points on the
+        // inside of the walls may round a few steps out.
+        let mut scene = scene_with(false, Vec3::splat(0.5), 0.2, -1.0);
+        let offset = Vec3::new(1.0e5, 0.0, 0.0);
+        for t in &mut scene.triangles {
+            t.p = t.p.map(|p| p + offset);
+        }
+        let b = boxes(&scene)[0].expect("sealed");
+        let step = 1.0e5f32.next_up() - 1.0e5;
+        for wall in [offset, offset + Vec3::ONE] {
+            let out = Vec3::splat(8.0 * step) * (wall - offset - Vec3::splat(0.5)).signum();
+            assert!(b.contains(wall + out), "{b:?} leaves out {}", wall + out);
+        }
     }
 
     #[test]
