@@ -100,10 +100,7 @@ impl LightBounds {
             cos_o: cone.cos_theta,
             cos_e: self.cos_e.min(other.cos_e),
             two_sided: self.two_sided || other.two_sided,
-            lit: match (self.lit, other.lit) {
-                (Some(a), Some(b)) => Some(LitBox { min: a.min.min(b.min), max: a.max.max(b.max) }),
-                _ => None,
-            },
+            lit: self.lit.zip(other.lit).map(|(a, b)| a.union(&b)),
         }
     }
 

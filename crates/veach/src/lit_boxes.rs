@@ -39,6 +39,10 @@ impl LitBox {
     pub fn contains(&self, p: Vec3) -> bool {
         p.cmpge(self.min).all() && p.cmple(self.max).all()
     }
+
+    pub fn union(&self, other: &LitBox) -> LitBox {
+        LitBox { min: self.min.min(other.min), max: self.max.max(other.max) }
+    }
 }
 
 /// Each light's lit box, or `None` where it is not sealed in a closed surface, where it is
@@ -46,6 +50,11 @@ impl LitBox {
 pub fn lit_boxes(scene: &Scene, bvh: &Bvh) -> Vec<Option<LitBox>> {
     let bounds = scene.bounds();
     let diagonal = (bounds.max - bounds.min).length().max(f32::MIN_POSITIVE);
+    // Grown past the rounding of the kernels' hit points, so that the inside of a surface stays
+    // inside its box: a ten-thousandth of the scene, and at least 8-16 f32 steps at its largest
+    // coordinate (a scene far from the origin).
+    let magnitude = bounds.min.abs().max(bounds.max.abs()).max_element();
+    let margin = Vec3::splat((1.0e-4 * diagonal).max(1.0e-6 * magnitude));
     // The edges' owners, built only if some light's probe rays all meet a surface, and each
     // searched triangle's closed surface (the same for all of a surface's triangles).
     let mut edges: Option<EdgeMap> = None;
@@ -58,19 +67,18 @@ pub fn lit_boxes(scene: &Scene, bvh: &Bvh) -> Vec<Option<LitBox>> {
             let probe = probe(scene, bvh, &emitter, diagonal)?;
             let edges = edges.get_or_insert_with(|| EdgeMap::new(&scene.triangles));
             let mut tried = Vec::new();
-            // Grown past the rounding of the kernels' hit points, so that the inside of the
-            // surface stays inside the box: a ten-thousandth of the scene, and at least 8-16 f32
-            // steps at its largest coordinate (a scene far from the origin).
-            let magnitude = bounds.min.abs().max(bounds.max.abs()).max_element();
-            let margin = Vec3::splat((1.0e-4 * diagonal).max(1.0e-6 * magnitude));
             for t in probe.triangles {
                 if tried.len() == MAX_CANDIDATES {
                     break;
                 }
                 if !enclosures.contains_key(&t) {
-                    let (searched, enclosure) = Enclosure::around(t, &scene.triangles, edges);
-                    let enclosure = enclosure.map(Rc::new);
-                    enclosures.extend(searched.into_iter().map(|i| (i, enclosure.clone())));
+                    match Enclosure::around(t, &scene.triangles, edges) {
+                        Ok(enclosure) => {
+                            let enclosure = Rc::new(enclosure);
+                            enclosures.extend(enclosure.triangles.iter().map(|&i| (i, Some(enclosure.clone()))));
+                        }
+                        Err(searched) => enclosures.extend(searched.into_iter().map(|i| (i, None))),
+                    }
                 }
                 let Some(enclosure) = enclosures[&t].clone() else { continue };
                 if tried.contains(&enclosure.triangles[0]) {
@@ -157,10 +165,10 @@ struct Enclosure {
 
 impl Enclosure {
     /// The triangles joined to `start` across edges, if every edge among them has exactly two
-    /// owners and there are at most `MAX_ENCLOSURE_TRIANGLES`; else `None`. First, the triangles
-    /// searched: all of the surface's, or where the search stopped, some of a surface that is not
-    /// closed (or too large), which no other search need repeat.
-    fn around(start: u32, triangles: &[Triangle], edges: &EdgeMap) -> (Vec<u32>, Option<Enclosure>) {
+    /// owners and there are at most `MAX_ENCLOSURE_TRIANGLES`; else the triangles searched before
+    /// the search stopped, of a surface that is not closed (or too large), which no other search
+    /// need repeat.
+    fn around(start: u32, triangles: &[Triangle], edges: &EdgeMap) -> Result<Enclosure, Vec<u32>> {
         let mut seen = HashSet::from([start]);
         let mut stack = vec![start];
         while let Some(i) = stack.pop() {
@@ -169,12 +177,12 @@ impl Enclosure {
                 let key = edge_key(t, e);
                 let (count, owners) = edges.0[&key];
                 if key.0 == key.1 || count != 2 {
-                    return (seen.into_iter().collect(), None);
+                    return Err(seen.into_iter().collect());
                 }
                 for o in owners {
                     if seen.insert(o) {
                         if seen.len() > MAX_ENCLOSURE_TRIANGLES {
-                            return (seen.into_iter().collect(), None);
+                            return Err(seen.into_iter().collect());
                         }
                         stack.push(o);
                     }
@@ -190,7 +198,7 @@ impl Enclosure {
                 max = max.max(p);
             }
         }
-        (list.clone(), Some(Enclosure { triangles: list, min, max }))
+        Ok(Enclosure { triangles: list, min, max })
     }
 
     /// Whether the emitter lies inside, clear of the surface: each of its corners (or its point)

@@ -63,8 +63,8 @@ pub struct GpuScene {
     pub(crate) light_tree: wgpu::Buffer,
     pub(crate) light_tree_nodes: u32,
     pub(crate) directional_lights: u32,
-    /// The tree's array holds its nodes' lit boxes (`LightTree::lit`), for this many lights.
-    pub(crate) light_tree_lit_boxes: bool,
+    /// Lights with a lit box (`LightTree::sealed_lights`): where any has one, the tree's array
+    /// holds its nodes' lit boxes (`LightTree::lit`).
     pub(crate) sealed_lights: u32,
     pub stats: SceneUploadStats,
     /// What the scene needs of the kernel.
@@ -95,7 +95,7 @@ impl GpuScene {
 
     /// Whether the light tree's array holds lit boxes (FrameParams' light_tree_lit_boxes).
     pub fn light_tree_lit_boxes(&self) -> bool {
-        self.light_tree_lit_boxes
+        self.sealed_lights > 0
     }
 
     /// Lights sealed in closed surfaces, which the tree gives no samples outside them
@@ -117,7 +117,7 @@ impl GpuScene {
             uniform: self.uniform,
             baked: self.baked.as_ref(),
             emitter_grid: self.emitter_grid.is_some(),
-            lit_boxes: self.light_tree_lit_boxes,
+            lit_boxes: self.light_tree_lit_boxes(),
         }
     }
 
@@ -456,7 +456,6 @@ impl Renderer {
             light_tree,
             light_tree_nodes: arrays.light_tree.tree_nodes,
             directional_lights: arrays.light_tree.directional,
-            light_tree_lit_boxes: !arrays.light_tree.lit.is_empty(),
             sealed_lights: arrays.light_tree.sealed_lights,
             emitter_bound: arrays.emitter_bound,
             emitter_box: arrays.emitter_box,
@@ -554,7 +553,7 @@ impl Renderer {
             light_count: scene.light_count,
             light_tree_nodes: scene.light_tree_nodes,
             directional_lights: scene.directional_lights,
-            light_tree_lit_boxes: scene.light_tree_lit_boxes as u32,
+            light_tree_lit_boxes: scene.light_tree_lit_boxes() as u32,
             _pad: [0; 3],
             emitter_centre: scene.emitter_bound.0,
             emitter_radius: scene.emitter_bound.1,
