@@ -4,8 +4,9 @@
 # Vulkan, lavapipe; without xvfb-run installs Xvfb. Safe to run again.
 #
 # --mesa-backports (Debian 12 only): install lavapipe from bookworm-backports (Mesa 25) instead
-# of bookworm's Mesa 22.3. Same images bit for bit, 1.4-3.3x faster renders (docs/performance.md,
-# "Mesa 22.3 against Mesa 25"); it replaces the system's Mesa packages, so it is opt-in.
+# of bookworm's Mesa 22.3. Same images bit for bit, 1.4-3.3x faster renders of the shipped scenes,
+# 1.2x by the median zoo scene (docs/performance.md, "Mesa 22.3 against Mesa 25"); it replaces
+# the system's Mesa packages, so it is opt-in.
 set -euo pipefail
 backports=no
 for arg in "$@"; do
