@@ -18,7 +18,8 @@ relMSE = mean over pixels and channels of (x - r)^2 / (r^2 + 1e-2); efficiency =
 seconds), the median over seeds. A render that fails (the driver's loop limit, say) is reported
 as such and counts as the worst case.
 
-Writes DIR/zoo.csv (one row per scene and variant) and prints a Markdown table: each variant's
+Writes DIR/zoo.csv (one row per scene and variant, with veach's rays per second: camera, shadow
+and direction rays over the render time) and prints a Markdown table: each variant's
 efficiency relative to the first variant per scene, then the geometric mean and the worst ratio
 over the scenes. A scene enters the means only where the first variant's relMSE is at least 4
 times the reference's own (else the ratio measures the reference's noise) and its reference is
@@ -109,7 +110,7 @@ def main():
         # Each half's error variance is twice the mean's: E[(a - b)^2] = 4 Var(mean).
         ref_own = relmse(halves[0], halves[1]) / 4.0
         for vname, flags in variants:
-            effs, errs, secs = [], [], []
+            effs, errs, secs, rates = [], [], [], []
             failure = None
             for seed in range(1, args.seeds + 1):
                 out = os.path.join(args.output, "image.pfm")
@@ -119,7 +120,9 @@ def main():
                 if failure:
                     break
                 with open(stats) as f:
-                    seconds = json.load(f)["timings_seconds"]["render"]
+                    st = json.load(f)
+                seconds = st["timings_seconds"]["render"]
+                rates.append(st["rays_per_second"])
                 e = relmse(read_pfm(out), ref)
                 errs.append(e)
                 secs.append(seconds)
@@ -127,15 +130,16 @@ def main():
             row = {"scene": name, "variant": vname, "failure": failure or "", "reference_relmse": ref_own,
                    "relmse": statistics.median(errs) if errs and not failure else math.nan,
                    "seconds": statistics.median(secs) if secs and not failure else math.nan,
-                   "efficiency": statistics.median(effs) if effs and not failure else 0.0}
+                   "efficiency": statistics.median(effs) if effs and not failure else 0.0,
+                   "rays_per_second": statistics.median(rates) if rates and not failure else math.nan}
             rows.append(row)
             print(f"{name:28} {vname:24} relMSE {row['relmse']:.3e} {row['seconds']:.3f} s"
                   + (f"  FAILED: {failure}" if failure else ""), file=sys.stderr, flush=True)
     with open(os.path.join(args.output, "zoo.csv"), "w") as f:
-        f.write("scene,variant,relmse,seconds,efficiency,reference_relmse,failure\n")
+        f.write("scene,variant,relmse,seconds,efficiency,reference_relmse,rays_per_second,failure\n")
         for r in rows:
             f.write(f"{r['scene']},{r['variant']},{r['relmse']:.6e},{r['seconds']:.6f},{r['efficiency']:.6e},"
-                    f"{r['reference_relmse']:.6e},\"{r['failure']}\"\n")
+                    f"{r['reference_relmse']:.6e},{r['rays_per_second']:.6e},\"{r['failure']}\"\n")
     # The table: each variant's efficiency over the first's, per scene.
     base = variants[0][0]
     print(f"| scene | reference's own relMSE | {' | '.join(v for v, _ in variants)} |")
