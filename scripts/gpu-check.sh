@@ -21,12 +21,9 @@
 #   SCALE_OPTS="--triangles 1000 --lights 1,10 --repeats 1" scripts/gpu-check.sh
 set -uo pipefail
 cd "$(dirname "$0")/.."
-out=${OUT:-target/gpu-check}
-work=/tmp/gpu-check
-rm -rf "$work" && mkdir -p "$out" "$work"
-exec > >(tee "$out/gpu-check.log") 2>&1
 # shellcheck source=scripts/gpu-env.sh
 . scripts/gpu-env.sh
+gpu_script_start gpu-check
 export VEACH=$veach
 step() { echo; echo "== $1 ($(date +%T))"; }
 

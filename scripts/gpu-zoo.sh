@@ -12,12 +12,9 @@
 #   VEACH=target/release/veach WIDTH=64 HEIGHT=48 REF_SPP=16 SCENES=lights-1,mesh-blob-1k scripts/gpu-zoo.sh
 set -uo pipefail
 cd "$(dirname "$0")/.."
-out=${OUT:-target/gpu-zoo}
-work=/tmp/gpu-zoo
-rm -rf "$work" && mkdir -p "$out" "$work"
-exec > >(tee "$out/gpu-zoo.log") 2>&1
 # shellcheck source=scripts/gpu-env.sh
 . scripts/gpu-env.sh
+gpu_script_start gpu-zoo
 width=${WIDTH:-1920}
 height=${HEIGHT:-1080}
 spp=${SPP:-16}
