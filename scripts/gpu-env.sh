@@ -1,7 +1,8 @@
 # Sourced by the scripts that run on a lent GPU machine (gpu-check.sh, gpu-zoo.sh, gpu-rays.sh,
-# gpu-tests.sh): the carried Vulkan loader and libglvnd, which NVIDIA's Vulkan driver (libGLX_nvidia.so.0) links,
-# unpacked from .gl once per machine; NVIDIA's ICD named where the loader does not look; and
-# $veach, the carried binary or else this checkout's build.
+# gpu-tests.sh): the carried Vulkan loader and libglvnd, which NVIDIA's Vulkan driver
+# (libGLX_nvidia.so.0) links, unpacked from .gl once per machine; NVIDIA's ICD named where the
+# loader does not look; $veach, the carried binary or else this checkout's build; and
+# gpu_script_start.
 if [ -d .gl ] && ! ldconfig -p | grep -q libGLdispatch.so.0; then
     for f in .gl/*.deb; do dpkg -x "$f" /; done
     ldconfig
