@@ -133,7 +133,8 @@ def main():
                    "efficiency": statistics.median(effs) if effs and not failure else 0.0,
                    "rays_per_second": statistics.median(rates) if rates and not failure else math.nan}
             rows.append(row)
-            print(f"{name:28} {vname:24} relMSE {row['relmse']:.3e} {row['seconds']:.3f} s"
+            print(f"{name:28} {vname:24} relMSE {row['relmse']:.3e} {row['seconds']:.3f} s "
+                  f"{row['rays_per_second'] / 1e6:.1f} Mrays/s"
                   + (f"  FAILED: {failure}" if failure else ""), file=sys.stderr, flush=True)
     with open(os.path.join(args.output, "zoo.csv"), "w") as f:
         f.write("scene,variant,relmse,seconds,efficiency,reference_relmse,rays_per_second,failure\n")

@@ -3,8 +3,9 @@
 # scene of `veach generate zoo` rendered at 1920x1080 with the defaults, its relMSE against a
 # reference rendered there too, its efficiency and its rays per second (bench/zoo.py), and whether
 # the 1M-triangle mesh holds 2 G rays/s of all kinds (camera, shadow and direction rays).
-# Everything lands in $OUT: gpu-zoo.log, zoo-table.md (bench/zoo.py's table) and zoo.csv; the
-# images stay on the machine (1920x1080 PFMs are 25 MB each).
+# Everything lands in $OUT: gpu-zoo.log (a line per scene as it finishes, so that a run cut short
+# still says what it measured), zoo-table.md (bench/zoo.py's table) and zoo.csv; the images stay
+# on the machine (1920x1080 PFMs are 25 MB each).
 #
 # Prepare the carried binary and Vulkan loader as for scripts/gpu-check.sh, then:
 #   run(command="scripts/gpu-zoo.sh", carry=[".gpu", ".gl"], timeout_s=540)
