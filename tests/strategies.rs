@@ -80,7 +80,6 @@ fn z_score(a: &RegionEstimate, b: &RegionEstimate, ch: usize) -> f64 {
 /// Two renders of one image compared region by region (`block`×`block`), each channel's z score
 /// against `z`: a line in `failures` per region off, and where any is, the two images and their
 /// difference written under `test`. `what` names the comparison, `names` the two renders.
-/// Returns the worst score.
 fn compare_renders(
     test: &str,
     what: &str,
@@ -88,7 +87,7 @@ fn compare_renders(
     (a, b): (&veach::RenderOutput, &veach::RenderOutput),
     (width, block, z): (u32, u32, f64),
     failures: &mut Vec<String>,
-) -> f64 {
+) {
     let mut worst: f64 = 0.0;
     for ry in 0..width / block {
         for rx in 0..width / block {
@@ -116,7 +115,25 @@ fn compare_renders(
         );
         failures.push(format!("images in {}", dir.display()));
     }
-    worst
+}
+
+/// Pairs of renders (`what`, the render, the one it must agree with) of one `width`² image that
+/// share an expectation: no non-finite sample in the first, and `compare_renders` on each within
+/// the Bonferroni z of all their regions and channels at family-wise significance 1e-3.
+fn assert_renders_agree(
+    test: &str,
+    names: [&str; 2],
+    (width, block): (u32, u32),
+    pairs: &[(String, &veach::RenderOutput, &veach::RenderOutput)],
+) {
+    let regions = (width / block) * (width / block);
+    let z = bonferroni_z(1e-3, pairs.len() * regions as usize * 3);
+    let mut failures = Vec::new();
+    for (what, a, b) in pairs {
+        assert_eq!(a.nonfinite_samples, 0, "{test}, {what}");
+        compare_renders(test, what, names, (a, b), (width, block, z), &mut failures);
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
 
 /// Compares each config with the reference over `block`×`block` regions, per colour channel.
@@ -546,25 +563,13 @@ fn a_curved_light_split_into_parts_renders_what_it_does_whole() {
         ..RenderSettings::recommended()
     };
     let selections = [LightSelection::Tree, Power, Uniform];
-    let regions = (width / block) * (width / block);
-    let z = bonferroni_z(1e-3, selections.len() * regions as usize * 3);
     let whole_out = render(&upload(&whole), &settings(LightSelection::Tree, 1), &camera);
     let split_gpu = upload(&split);
-    let mut failures = Vec::new();
-    for (k, selection) in selections.into_iter().enumerate() {
-        let out = render(&split_gpu, &settings(selection, 10 + k as u32), &camera);
-        assert_eq!(out.nonfinite_samples, 0);
-        let what = format!("{selection:?}");
-        compare_renders(
-            "curved-light",
-            &what,
-            ["split", "whole"],
-            (&out, &whole_out),
-            (width, block, z),
-            &mut failures,
-        );
-    }
-    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    let outs: Vec<_> = (selections.iter().enumerate())
+        .map(|(k, &selection)| render(&split_gpu, &settings(selection, 10 + k as u32), &camera))
+        .collect();
+    let pairs: Vec<_> = selections.iter().zip(&outs).map(|(s, out)| (format!("{s:?}"), out, &whole_out)).collect();
+    assert_renders_agree("curved-light", ["split", "whole"], (width, block), &pairs);
 }
 
 /// A light sealed in a closed box gets no light samples outside the box (its lit box,
@@ -599,24 +604,15 @@ fn a_sealed_light_left_out_of_light_samples_outside_its_box_stays_unbiased() {
     assert!(sealed_gpu.light_tree_lit_boxes(), "the sealed light has no lit box");
     let without_gpu = upload(&without);
     let strategies = [Strategy::Mis, Strategy::Light];
-    let regions = (width / block) * (width / block);
-    let z = bonferroni_z(1e-3, strategies.len() * regions as usize * 3);
-    let mut failures = Vec::new();
-    for (k, strategy) in strategies.into_iter().enumerate() {
-        let out = render(&sealed_gpu, &settings(strategy, 20 + k as u32), &camera);
-        let reference = render(&without_gpu, &settings(strategy, 30 + k as u32), &camera);
-        assert_eq!(out.nonfinite_samples, 0);
-        let what = format!("{strategy:?}");
-        compare_renders(
-            "sealed-light",
-            &what,
-            ["sealed", "without"],
-            (&out, &reference),
-            (width, block, z),
-            &mut failures,
-        );
-    }
-    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    let outs: Vec<_> = (strategies.iter().enumerate())
+        .map(|(k, &strategy)| {
+            let out = render(&sealed_gpu, &settings(strategy, 20 + k as u32), &camera);
+            (out, render(&without_gpu, &settings(strategy, 30 + k as u32), &camera))
+        })
+        .collect();
+    let pairs: Vec<_> =
+        strategies.iter().zip(&outs).map(|(s, (out, reference))| (format!("{s:?}"), out, reference)).collect();
+    assert_renders_agree("sealed-light", ["sealed", "without"], (width, block), &pairs);
 }
 
 /// Solid-angle sampling (these scenes' lights are rectangles: Ureña et al. 2013's spherical
