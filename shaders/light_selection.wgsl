@@ -41,7 +41,7 @@ fn light_importance(index: u32, x: vec3f, shading: Frame, wo: vec3f, bsdf: BsdfP
     }
     let wi = frame_to_local(shading, to_light);
     let f = bsdf_eval_lobes(bsdf, wo, wi);
-    return light_picks[index].pdf * luminance(f.diffuse + f.glossy) * max(wi.z, 0.0) / dist_sq;
+    return light_pick_at(index).pdf * luminance(f.diffuse + f.glossy) * max(wi.z, 0.0) / dist_sq;
 }
 
 // SELECT_BSDF at shading point x: P(light i) = a P_power(i) + (1 - a) g_i / Σg (g:
@@ -74,7 +74,7 @@ fn prepare_point_selection(x: vec3f, shading: Frame, wo: vec3f, bsdf: BsdfParams
     let power = select(1.0, POWER_SHARE, guess > 0.0);
     i = 0u;
     loop {
-        point_selection[i] = power * light_picks[i].pdf + guess * point_selection[i];
+        point_selection[i] = power * light_pick_at(i).pdf + guess * point_selection[i];
         i++;
         if i >= light_count() {
             break;
@@ -122,7 +122,7 @@ fn light_selection_pdf(index: u32) -> f32 {
             return 1.0 / f32(light_count());
         }
         case SELECT_POWER, SELECT_BSDF: {
-            return light_picks[index].pdf;
+            return light_pick_at(index).pdf;
         }
         default: {
             // SELECT_EACH: every light gets its own samples.
@@ -162,10 +162,10 @@ fn alias_pick(b: AliasBucket, keep: f32, own: u32, other: u32) -> DiscretePick {
     return DiscretePick(other, remap_above(b.frac, keep));
 }
 
-// A light with probability light_picks[i].pdf, by the lights' alias table.
+// A light with probability light_pick_at(i).pdf, by the lights' alias table.
 fn select_light_by_power(u: f32) -> DiscretePick {
     let b = alias_bucket(u, light_count());
-    let bucket = light_picks[b.index];
+    let bucket = light_pick_at(b.index);
     return alias_pick(b, bucket.alias_prob, b.index, bucket.alias_index);
 }
 
@@ -178,9 +178,9 @@ fn light_count() -> u32 {
 // Light `index`'s record; with SINGLE_LIGHT, light 0's at a constant index.
 fn light_at(index: u32) -> Light {
     if SINGLE_LIGHT {
-        return lights[0];
+        return light_record(0u);
     }
-    return lights[index];
+    return light_record(index);
 }
 
 fn select_light(u: f32) -> DiscretePick {

@@ -200,7 +200,7 @@ fn light_tree_pmf(index: u32) -> f32 {
     if light_at(index).kind == LIGHT_DIRECTIONAL {
         return directional_share();
     }
-    var trail = light_picks[index].tree_trail;
+    var trail = light_pick_at(index).tree_trail;
     if trail == 0xffffffffu || frame.light_tree_nodes == 0u {
         return 0.0;
     }

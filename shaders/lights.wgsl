@@ -26,13 +26,13 @@ fn light_is_delta(kind: u32) -> bool {
 // select_light_by_power); the index is into `triangles`.
 fn select_emitter_triangle(light: Light, u: f32) -> DiscretePick {
     let b = alias_bucket(u, light.tri_count);
-    let bucket = emitter_tris[light.first_tri + b.index];
+    let bucket = emitter_tri_at(light.first_tri + b.index);
     return alias_pick(b, bucket.alias_prob, bucket.triangle, bucket.alias_triangle);
 }
 
 // Triangle i of `light` (an index into `triangles`).
 fn light_triangle(light: Light, i: u32) -> u32 {
-    return emitter_tris[light.first_tri + i].triangle;
+    return emitter_tri_at(light.first_tri + i).triangle;
 }
 
 // Does the light emit towards a receiver lying along -wi from a point with normal n_l?

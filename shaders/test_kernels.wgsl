@@ -52,7 +52,7 @@ fn traced_light_pdf(x: vec3f, wi: vec3f) -> f32 {
     }
     let v = triangle_positions(triangle_at(hit.tri));
     let n_l = triangle_normal(v);
-    let light = lights[test.light_index];
+    let light = light_record(test.light_index);
     if !emits_towards(light.double_sided != 0u, n_l, wi) {
         return 0.0;
     }
@@ -101,7 +101,7 @@ fn run_test(@builtin(global_invocation_id) gid: vec3u, @builtin(num_workgroups) 
             write_sample(i, s.wi, s.pdf, bsdf_pdf(p, wo, s.wi), weight);
         }
         case TEST_SAMPLE_LIGHT: {
-            let light = lights[test.light_index];
+            let light = light_record(test.light_index);
             if cone_sampled(light) {
                 // A direction in the bounding cone: a sample where its ray finds the light.
                 let cone = bounding_cone(light, test.point);

@@ -616,6 +616,42 @@ fn the_light_tree_renders_alike_from_a_uniform_array_and_from_storage() {
     assert_same_image("light-tree-uniform", "uniform tree against storage", &auto.sum, &storage.sum, settings.width);
 }
 
+/// Scene arrays too large for uniform arrays are read from `rgba32uint` textures on CPU adapters
+/// (`UniformArrays::texel_arrays`; Mesa 22.3 loads storage lane by lane): the same image, bit for
+/// bit, as from storage, since each reader returns the same words. 5,000 triangle lights among
+/// 12,000 triangles over a floor make every array that can be a texture one: the BVH (too large
+/// for a uniform array even with larger leaves), vertices, triangles, lights, emitter triangles,
+/// light picks and the light tree; MIS 1 + 1 with lights chosen by the tree.
+#[test]
+fn scene_arrays_render_alike_from_textures_and_from_storage() {
+    let cpu = renderer().gpu.adapter_info.device_type == wgpu::DeviceType::Cpu;
+    let scene = load(&veach_scenes::scale_scenes::light_scene(5000, 12000), "texel-arrays");
+    let camera = scene.camera(None).unwrap();
+    let settings = RenderSettings {
+        width: 32,
+        height: 24,
+        spp: 2,
+        strategy: Strategy::Mis,
+        light_samples: 1,
+        brdf_samples: 1,
+        light_selection: LightSelection::Tree,
+        seed: 3,
+        ..Default::default()
+    };
+    let storage =
+        render(&renderer().upload_scene_with(&scene, veach::render::BvhMemory::Storage).unwrap(), &settings, &camera);
+    let auto = render(&upload(&scene), &settings, &camera);
+    assert!(!storage.kernel.driver.uniform.texel_arrays);
+    let u = auto.kernel.driver.uniform;
+    assert_eq!(u.texel_arrays, cpu, "a CPU adapter reads large arrays from textures");
+    if cpu {
+        let lengths = [u.bvh_nodes, u.vertices, u.triangles, u.lights, u.emitter_tris, u.light_picks, u.light_tree];
+        assert_eq!(lengths, [0; 7], "every array but the materials is too large for a uniform array");
+    }
+    assert!(storage.sum.iter().any(|p| p[0] > 0.0), "the scene renders black");
+    assert_same_image("texel-arrays", "textures against storage", &auto.sum, &storage.sum, settings.width);
+}
+
 /// With the control variate (shaders/control_variate.wgsl) every kernel still renders the same
 /// image, bit for bit: the generic kernel, the specialised megakernel and wavefront, over the BVH,
 /// the baked triangles and the emitters' list (baked, boxed), for every strategy that takes it. Its

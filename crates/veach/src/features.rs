@@ -153,6 +153,11 @@ pub struct UniformArrays {
     /// Binding 26's `light_tree` as a uniform array of this many nodes (0: storage): the tree's
     /// walk loads two nodes a step ("The light tree in a uniform array").
     pub light_tree: u32,
+    /// The BVH's nodes, the vertices, the triangles and the light tree, where not uniform arrays,
+    /// are read from `rgba32uint` textures (`gpu::bindings::TEXEL_ROW`), not from storage: on CPU
+    /// adapters. Mesa 22.3's lavapipe loads a storage word lane by lane, moving each through the
+    /// stack, and gathers a texture's texels ("Scene arrays in textures").
+    pub texel_arrays: bool,
 }
 
 impl UniformArrays {

@@ -43,6 +43,9 @@ pub struct GpuScene {
     /// The arrays that are uniform buffers too, with the length they are padded to (see
     /// `BvhMemory`).
     pub(crate) uniform: UniformArrays,
+    /// Texture copies of the scene arrays of bindings 1-7 (but the materials) and of the light
+    /// tree, where `uniform.texel_arrays` reads them from textures (`None` for uniform arrays).
+    pub(crate) texel_views: [Option<wgpu::TextureView>; 8],
     /// The triangles compiled into the kernel instead of a BVH, for small scenes on CPU adapters
     /// (`BvhMemory::Auto`).
     pub(crate) baked: Option<Arc<BakedTriangles>>,
@@ -132,6 +135,8 @@ impl GpuScene {
 /// `RenderOutput::kernel_creation`, outside the render time.
 pub(crate) struct Kernel {
     pub(crate) textures: bool,
+    /// It reads the arrays that are not uniform from the scene's textures (`GpuScene::texel_views`).
+    pub(crate) texel_arrays: bool,
     /// It reads the emitters' grid (`KernelPlan::emitter_grid`).
     pub(crate) emitter_grid: bool,
     /// `render`, or the wavefront's first kernel (`render_light_pass`)...
@@ -168,6 +173,35 @@ fn scene_buffer<T: bytemuck::Pod + Default>(
         contents: bytemuck::cast_slice(contents),
         usage: wgpu::BufferUsages::STORAGE | also,
     })
+}
+
+/// Rows of TEXEL_ROW 16-byte texels that `bytes` take (at least one).
+fn texel_rows(bytes: usize) -> u32 {
+    (bytes.div_ceil(16).div_ceil(bindings::TEXEL_ROW as usize)).max(1) as u32
+}
+
+/// An `rgba32uint` texture of `bytes` (a multiple of 16), TEXEL_ROW texels a row, the last row
+/// padded with zeros: how CPU adapters read a large scene array (`UniformArrays::texel_arrays`).
+fn texel_array(device: &wgpu::Device, queue: &wgpu::Queue, label: &str, bytes: &[u8]) -> wgpu::TextureView {
+    let rows = texel_rows(bytes.len());
+    let mut padded = bytes.to_vec();
+    padded.resize((rows * bindings::TEXEL_ROW * 16) as usize, 0);
+    let texture = device.create_texture_with_data(
+        queue,
+        &wgpu::TextureDescriptor {
+            label: Some(label),
+            size: wgpu::Extent3d { width: bindings::TEXEL_ROW, height: rows, depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: wgpu::TextureFormat::Rgba32Uint,
+            usage: wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        },
+        wgpu::util::TextureDataOrder::LayerMajor,
+        &padded,
+    );
+    texture.create_view(&Default::default())
 }
 
 /// Where the kernels read the scene's arrays (BVH, vertices, triangles, materials, lights,
@@ -272,6 +306,7 @@ impl Renderer {
         let wavefront = pipelines.next().zip(pipelines.next());
         let kernel = Arc::new(Kernel {
             textures: key.textures.module,
+            texel_arrays: key.driver.uniform.texel_arrays,
             emitter_grid: key.driver.emitter_grid,
             pipeline,
             wavefront,
@@ -367,7 +402,7 @@ impl Renderer {
             .filter(|g| forced_grid || g.pays());
         let bvh_stack_bound = crate::gpu::bvh_nodes::stack_bound(&arrays.bvh_nodes);
         let emitter_triangles = arrays.emitter_tris.len() as u32;
-        let uniform = UniformArrays {
+        let mut uniform = UniformArrays {
             bvh_nodes: pad_for_uniform(&mut arrays.bvh_nodes, capacity),
             vertices: pad_for_uniform(&mut arrays.vertices, self.uniform_capacity::<layout::Vertex>(memory)),
             triangles: pad_for_uniform(&mut arrays.triangles, self.uniform_capacity::<layout::IndexedTriangle>(memory)),
@@ -386,8 +421,42 @@ impl Renderer {
                 &mut arrays.light_tree.nodes,
                 self.uniform_capacity::<layout::LightTreeNode>(memory),
             ),
+            texel_arrays: false,
         };
         let device = &self.gpu.device;
+        // On CPU adapters (where arrays may be uniform), the arrays read through a function
+        // are read from textures where they are not uniform, if every one fits a texture.
+        let texel_words = [
+            (uniform.bvh_nodes, std::mem::size_of_val(arrays.bvh_nodes.as_slice())),
+            (uniform.vertices, std::mem::size_of_val(arrays.vertices.as_slice())),
+            (uniform.triangles, std::mem::size_of_val(arrays.triangles.as_slice())),
+            (1, 0), // the materials: always a buffer
+            (uniform.lights, std::mem::size_of_val(arrays.lights.as_slice())),
+            (uniform.emitter_tris, std::mem::size_of_val(arrays.emitter_tris.as_slice())),
+            (uniform.light_picks, std::mem::size_of_val(arrays.light_picks.as_slice())),
+            (uniform.light_tree, std::mem::size_of_val(arrays.light_tree.nodes.as_slice())),
+        ];
+        let max_rows = device.limits().max_texture_dimension_2d;
+        uniform.texel_arrays = self.uniform_capacity::<u32>(memory) > 0
+            && texel_words.iter().all(|&(_, bytes)| texel_rows(bytes) <= max_rows);
+        let texel_views = if uniform.texel_arrays {
+            let queue = &self.gpu.queue;
+            let view = |k: usize, label: &str, bytes: &[u8]| {
+                (texel_words[k].0 == 0).then(|| texel_array(device, queue, label, bytes))
+            };
+            [
+                view(0, "bvh_nodes texels", bytemuck::cast_slice(&arrays.bvh_nodes)),
+                view(1, "vertices texels", bytemuck::cast_slice(&arrays.vertices)),
+                view(2, "triangles texels", bytemuck::cast_slice(&arrays.triangles)),
+                None,
+                view(4, "lights texels", bytemuck::cast_slice(&arrays.lights)),
+                view(5, "emitter_tris texels", bytemuck::cast_slice(&arrays.emitter_tris)),
+                view(6, "light_picks texels", bytemuck::cast_slice(&arrays.light_picks)),
+                view(7, "light tree texels", bytemuck::cast_slice(&arrays.light_tree.nodes)),
+            ]
+        } else {
+            Default::default()
+        };
         let max_binding = device.limits().max_storage_buffer_binding_size;
         let too_big = [
             std::mem::size_of_val(arrays.bvh_nodes.as_slice()),
@@ -445,11 +514,18 @@ impl Renderer {
             .chain(emitter_grid.iter())
             .chain([&light_tree])
             .map(|b| b.size())
-            .sum();
+            .sum::<u64>()
+            + texel_views
+                .iter()
+                .zip(texel_words)
+                .filter(|(view, _)| view.is_some())
+                .map(|(_, (_, bytes))| texel_rows(bytes) as u64 * bindings::TEXEL_ROW as u64 * 16)
+                .sum::<u64>();
         stats.upload = upload_start.elapsed();
         Ok(GpuScene {
             buffers,
             uniform,
+            texel_views,
             baked,
             texture_buffers,
             light_count: scene.lights.len() as u32,
@@ -480,11 +556,14 @@ impl Renderer {
         let layout = &kernel.layout;
         let mut entries = vec![wgpu::BindGroupEntry { binding: bindings::FRAME, resource: frame.as_entire_binding() }];
         let (triangle_lights, scene_arrays) = scene.buffers.split_last().expect("scene buffers");
+        // A kernel reading texel arrays binds the scene's textures where it has them.
+        let texels = |k: usize| scene.texel_views[k].as_ref().filter(|_| kernel.texel_arrays);
         for (i, b) in scene_arrays.iter().enumerate() {
-            entries.push(wgpu::BindGroupEntry {
-                binding: bindings::SCENE_FIRST + i as u32,
-                resource: b.as_entire_binding(),
-            });
+            let resource = match texels(i) {
+                Some(view) => wgpu::BindingResource::TextureView(view),
+                None => b.as_entire_binding(),
+            };
+            entries.push(wgpu::BindGroupEntry { binding: bindings::SCENE_FIRST + i as u32, resource });
         }
         entries.push(wgpu::BindGroupEntry {
             binding: bindings::TRIANGLE_LIGHTS,
@@ -492,7 +571,10 @@ impl Renderer {
         });
         entries.push(wgpu::BindGroupEntry {
             binding: bindings::LIGHT_TREE,
-            resource: scene.light_tree.as_entire_binding(),
+            resource: match texels(7) {
+                Some(view) => wgpu::BindingResource::TextureView(view),
+                None => scene.light_tree.as_entire_binding(),
+            },
         });
         for (i, b) in outputs.iter().enumerate() {
             entries.push(wgpu::BindGroupEntry {

@@ -282,7 +282,10 @@ mod tests {
             light_picks: 4096,
             triangle_lights: 1024,
             light_tree: 2048,
+            texel_arrays: false,
         };
+        // A large scene on a CPU adapter: the materials uniform, every other array a texture.
+        let texels = UniformArrays { materials: 256, texel_arrays: true, ..UniformArrays::default() };
         // Two triangles with extreme corners: the largest f32, a subnormal, a negative zero.
         let vertices = [[f32::MAX, 0.0, -0.0], [1.0e-45, -1.0, 2.5], [0.1, -f32::MAX, 1.0]]
             .map(|p| crate::gpu::layout::Vertex { p, normal: 0 });
@@ -300,6 +303,7 @@ mod tests {
             (true, UniformArrays::default(), false, None),
             (false, small, true, None),
             (false, small, true, Some(&baked)),
+            (true, texels, true, None),
         ] {
             let declared = DeclaredBindings { uniform, frame_copy, ..DeclaredBindings::plain() };
             let source = render_kernel_source(textures, &declared, baked, 0);

@@ -38,6 +38,10 @@ pub const EMITTER_GRID: u32 = 25;
 /// `UniformArrays::light_tree`), in every kernel: SELECT_TREE is a setting of the frame, not of
 /// the kernel.
 pub const LIGHT_TREE: u32 = 26;
+/// Texels a row of a scene array's texture (`UniformArrays::texel_arrays`): element i's word w
+/// of an array of `words` 16-byte words an element is texel k = words * i + w, at
+/// (k % TEXEL_ROW, k / TEXEL_ROW).
+pub const TEXEL_ROW: u32 = 4096;
 /// Storage buffers a render kernel binds (scene + outputs): a device must allow this many per stage.
 pub const STORAGE_BUFFERS_NEEDED: u32 = 1 + SCENE_COUNT + 1 + OUTPUT_COUNT + TEXTURES_COUNT + 1;
 /// Storage buffers of the largest kernel with the emitters' grid: the wavefront's three deferred
@@ -127,17 +131,28 @@ pub fn wgsl_declarations(d: &DeclaredBindings) -> String {
         line(format!("@group(0) @binding({FRAME}) var<storage, read> frame: FrameParams;"));
         line("fn load_frame() {}".into());
     }
-    // The BVH's nodes, vertices and triangles (bindings 1-3) are declared below with their readers.
-    for (k, ((name, element), n)) in SCENE_ARRAYS.iter().zip(d.uniform.lengths()).enumerate().skip(3) {
-        let binding = SCENE_FIRST + k as u32;
-        line(match n {
-            0 => format!("@group(0) @binding({binding}) var<storage, read> {name}: array<{element}>;"),
-            n => format!("@group(0) @binding({binding}) var<uniform> {name}: array<{element}, {n}>;"),
-        });
-    }
+    // The materials; the other scene arrays are declared below with their readers.
+    let (name, element) = SCENE_ARRAYS[MATERIALS];
+    let binding = SCENE_FIRST + MATERIALS as u32;
+    line(match d.uniform.materials {
+        0 => format!("@group(0) @binding({binding}) var<storage, read> {name}: array<{element}>;"),
+        n => format!("@group(0) @binding({binding}) var<uniform> {name}: array<{element}, {n}>;"),
+    });
     let mut array_with_reader = |array: ArrayReader| {
         let ArrayReader { binding, name, element, uniform_len, reader, words, from_words } = array;
-        if uniform_len == 0 {
+        if uniform_len == 0 && d.uniform.texel_arrays {
+            line(format!("@group(0) @binding({binding}) var {name}: texture_2d<u32>;"));
+            let shift = TEXEL_ROW.trailing_zeros();
+            let mask = TEXEL_ROW - 1;
+            let loads: String = (0..words)
+                .map(|w| {
+                    format!(
+                        "    let k{w} = {words}u * i + {w}u;\n    let w{w} = textureLoad({name}, vec2u(k{w} & {mask}u, k{w} >> {shift}u), 0);\n"
+                    )
+                })
+                .collect();
+            line(format!("fn {reader}(i: u32) -> {element} {{\n{loads}    return {from_words};\n}}"));
+        } else if uniform_len == 0 {
             line(format!("@group(0) @binding({binding}) var<storage, read> {name}: array<vec4u>;"));
             let loads: String = (0..words).map(|w| format!("    let w{w} = {name}[{words}u * i + {w}u];\n")).collect();
             line(format!("fn {reader}(i: u32) -> {element} {{\n{loads}    return {from_words};\n}}"));
@@ -146,13 +161,25 @@ pub fn wgsl_declarations(d: &DeclaredBindings) -> String {
             line(format!("fn {reader}(i: u32) -> {element} {{\n    return {name}[i];\n}}"));
         }
     };
-    // Bindings 1-3: (uniform length, reader, words an element, the element from its words).
+    // Bindings 1-7 but the materials: (reader, words an element, the element from its words).
     let readers = [
-        (d.uniform.bvh_nodes, "bvh_node", 4, "BvhNode(bitcast<vec3f>(w0.xyz), w0.w, w1.xyz, w1.w, w2.xyz, w2.w, w3)"),
-        (d.uniform.vertices, "vertex_at", 1, "Vertex(bitcast<vec3f>(w0.xyz), w0.w)"),
-        (d.uniform.triangles, "triangle_at", 1, "IndexedTriangle(w0.x, w0.y, w0.z, w0.w)"),
+        ("bvh_node", 4, "BvhNode(bitcast<vec3f>(w0.xyz), w0.w, w1.xyz, w1.w, w2.xyz, w2.w, w3)"),
+        ("vertex_at", 1, "Vertex(bitcast<vec3f>(w0.xyz), w0.w)"),
+        ("triangle_at", 1, "IndexedTriangle(w0.x, w0.y, w0.z, w0.w)"),
+        ("", 0, ""),
+        (
+            "light_record",
+            5,
+            "Light(w0.x, w0.y, w0.z, w0.w, bitcast<vec3f>(w1.xyz), bitcast<f32>(w1.w), bitcast<vec3f>(w2.xyz), \
+             bitcast<f32>(w2.w), bitcast<vec3f>(w3.xyz), bitcast<f32>(w3.w), bitcast<f32>(w4.x), w4.y, w4.z, w4.w)",
+        ),
+        ("emitter_tri_at", 1, "EmitterTriangle(bitcast<f32>(w0.x), w0.y, w0.z, w0.w)"),
+        ("light_pick_at", 1, "LightPick(bitcast<f32>(w0.x), bitcast<f32>(w0.y), w0.z, w0.w)"),
     ];
-    for (k, (uniform_len, reader, words, from_words)) in readers.into_iter().enumerate() {
+    for (k, ((reader, words, from_words), uniform_len)) in readers.into_iter().zip(d.uniform.lengths()).enumerate() {
+        if k == MATERIALS {
+            continue;
+        }
         let (name, element) = SCENE_ARRAYS[k];
         let binding = SCENE_FIRST + k as u32;
         array_with_reader(ArrayReader { binding, name, element, uniform_len, reader, words, from_words });
@@ -199,6 +226,23 @@ fn storage(binding: u32, read_only: bool) -> wgpu::BindGroupLayoutEntry {
     entry(binding, wgpu::BufferBindingType::Storage { read_only })
 }
 
+/// The one scene array of SCENE_ARRAYS read directly, not through a function (a scene has few
+/// materials): every other may be a texture, as may the light tree.
+pub const MATERIALS: usize = 3;
+
+fn texels(binding: u32) -> wgpu::BindGroupLayoutEntry {
+    wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::COMPUTE,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Uint,
+            view_dimension: wgpu::TextureViewDimension::D2,
+            multisampled: false,
+        },
+        count: None,
+    }
+}
+
 /// Which optional bindings a kernel's layout has besides the frame, scene and outputs, and
 /// whether the BVH is a uniform buffer.
 #[derive(Clone, Copy, Debug, Default)]
@@ -230,9 +274,11 @@ pub fn layout_entries(extra: ExtraBindings) -> Vec<wgpu::BindGroupLayoutEntry> {
     let mut entries = vec![storage(FRAME, true)];
     let uniform_lengths = uniform.lengths();
     entries.extend((SCENE_FIRST..SCENE_FIRST + SCENE_COUNT).map(|b| {
-        match uniform_lengths.get((b - SCENE_FIRST) as usize) {
-            Some(&n) if n > 0 => entry(b, wgpu::BufferBindingType::Uniform),
-            _ => storage(b, true),
+        let k = (b - SCENE_FIRST) as usize;
+        match uniform_lengths[k] {
+            0 if uniform.texel_arrays && k != MATERIALS => texels(b),
+            0 => storage(b, true),
+            _ => entry(b, wgpu::BufferBindingType::Uniform),
         }
     }));
     entries.push(if uniform.triangle_lights > 0 {
@@ -242,6 +288,8 @@ pub fn layout_entries(extra: ExtraBindings) -> Vec<wgpu::BindGroupLayoutEntry> {
     });
     entries.push(if uniform.light_tree > 0 {
         entry(LIGHT_TREE, wgpu::BufferBindingType::Uniform)
+    } else if uniform.texel_arrays {
+        texels(LIGHT_TREE)
     } else {
         storage(LIGHT_TREE, true)
     });

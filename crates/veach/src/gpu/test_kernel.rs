@@ -85,7 +85,14 @@ impl<'a> TestKernel<'a> {
         let pipeline = pipelines.remove(0);
         Ok(TestKernel {
             renderer,
-            kernel: Kernel { textures: true, emitter_grid: false, pipeline, wavefront: None, layout },
+            kernel: Kernel {
+                textures: true,
+                texel_arrays: false,
+                emitter_grid: false,
+                pipeline,
+                wavefront: None,
+                layout,
+            },
         })
     }
 
