@@ -216,9 +216,11 @@ pub enum BvhMemory {
     /// (docs/performance.md, "Small BVHs in a uniform buffer", "Small scenes' triangles in
     /// uniform buffers"). GPUs keep storage: their constant caches serialise
     /// loads from different addresses within a warp (CUDA C++ Programming Guide, "Constant
-    /// Memory"), which is what a traversal does; not measured here.
+    /// Memory"), which is what a traversal does; not measured here. On CPU adapters the arrays
+    /// too large for a uniform buffer are read from textures (`UniformArrays::texel_arrays`).
     Auto,
-    /// A storage buffer, whatever its size (`veach scale`, so that its sizes compare like for like).
+    /// A storage buffer, whatever its size and adapter (`veach scale`, so that its sizes compare
+    /// like for like; tests of the path GPUs take).
     Storage,
     /// `Auto`, with a baked scene's compact groups of triangles behind boxes and its emitter list
     /// whatever the driver (`BakedTriangles`): for tests, which Mesa 22.3 would otherwise run

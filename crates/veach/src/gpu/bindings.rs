@@ -87,8 +87,8 @@ impl DeclaredBindings {
 }
 
 /// A scene array read through a function: a uniform array of its structs where it fits, or else
-/// storage declared as `vec4u` words, `words` of them an element, which `from_words` (over `w0`,
-/// `w1`, ...) makes into the struct.
+/// a texture or storage of 16-byte words, `words` of them an element, which `from_words` (over
+/// `w0`, `w1`, ...) makes into the struct.
 struct ArrayReader {
     binding: u32,
     name: &'static str,
@@ -111,9 +111,12 @@ struct ArrayReader {
 ///   those; "Small BVHs in a uniform buffer"), and `triangle_lights` (23), read by
 ///   `triangle_light`, packs four triangles to a vec4u where uniform ("Triangle lights in a
 ///   uniform array"); the light tree (26) is uniform where it fits too;
-/// - `bvh_node`, `vertex_at`, `triangle_at` and `light_tree_node` read an element: where their
-///   arrays are storage, declared as `vec4u` words and read 16 bytes a load (Mesa 22.3 loads
-///   storage lane by lane, once per load: "Scene arrays in storage as vec4u loads");
+/// - `bvh_node`, `vertex_at`, `triangle_at`, `light_record`, `emitter_tri_at`, `light_pick_at`
+///   and `light_tree_node` read an element: where their arrays are not uniform, on CPU adapters
+///   from an `rgba32uint` texture (`UniformArrays::texel_arrays`: Mesa 22.3 loads storage lane by
+///   lane, each word through the stack, and gathers texels; "Scene arrays in textures"), else
+///   from storage declared as `vec4u` words, 16 bytes a load ("Scene arrays in storage as vec4u
+///   loads");
 /// - the emitters' grid (25) is read by `emitter_grid_word`, which returns 0 in kernels without
 ///   one (EMITTER_LIST is then false and it is never read);
 /// - `BVH_STACK_SIZE` sizes the traversal's stack.
