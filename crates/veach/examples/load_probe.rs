@@ -1,12 +1,13 @@
 //! Times dependent loads from a storage array, a uniform array and an rgba32uint texture, at
-//! indices that differ per lane: how the driver gathers scene data.
+//! indices that differ per lane: how the driver gathers scene data (the texture as
+//! `veach::render::texel_array` uploads a scene array on CPU adapters).
 //!
 //!     cargo run --release -p veach --example load_probe -- [ELEMENTS]
 
 use std::time::Instant;
 use wgpu::util::DeviceExt;
 
-const WIDTH: u32 = 1024;
+const WIDTH: u32 = veach::gpu::bindings::TEXEL_ROW;
 
 fn shader(kind: &str, elements: u32) -> String {
     let (decl, load) = match kind {
@@ -72,29 +73,10 @@ fn main() {
         });
         let bytes: &[u8] = bytemuck::cast_slice(&words);
         let buffer;
-        let texture;
         let view;
         let resource = match kind {
             "texture" => {
-                let rows = elements.div_ceil(WIDTH);
-                let mut padded = words.clone();
-                padded.resize((rows * WIDTH * 4) as usize, 0);
-                texture = device.create_texture_with_data(
-                    &queue,
-                    &wgpu::TextureDescriptor {
-                        label: None,
-                        size: wgpu::Extent3d { width: WIDTH, height: rows, depth_or_array_layers: 1 },
-                        mip_level_count: 1,
-                        sample_count: 1,
-                        dimension: wgpu::TextureDimension::D2,
-                        format: wgpu::TextureFormat::Rgba32Uint,
-                        usage: wgpu::TextureUsages::TEXTURE_BINDING,
-                        view_formats: &[],
-                    },
-                    Default::default(),
-                    bytemuck::cast_slice(&padded),
-                );
-                view = texture.create_view(&Default::default());
+                view = veach::render::texel_array(&device, &queue, "probe texels", bytes);
                 wgpu::BindingResource::TextureView(&view)
             }
             _ => {

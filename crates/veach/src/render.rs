@@ -182,7 +182,7 @@ fn texel_rows(bytes: usize) -> u32 {
 
 /// An `rgba32uint` texture of `bytes` (a multiple of 16), TEXEL_ROW texels a row, the last row
 /// padded with zeros: how CPU adapters read a large scene array (`UniformArrays::texel_arrays`).
-fn texel_array(device: &wgpu::Device, queue: &wgpu::Queue, label: &str, bytes: &[u8]) -> wgpu::TextureView {
+pub fn texel_array(device: &wgpu::Device, queue: &wgpu::Queue, label: &str, bytes: &[u8]) -> wgpu::TextureView {
     let rows = texel_rows(bytes.len());
     let mut padded = bytes.to_vec();
     padded.resize((rows * bindings::TEXEL_ROW * 16) as usize, 0);
