@@ -428,37 +428,29 @@ impl Renderer {
         let device = &self.gpu.device;
         // On CPU adapters (where arrays may be uniform), the arrays read through a function
         // are read from textures where they are not uniform, if every one fits a texture.
-        let texel_words = [
-            (uniform.bvh_nodes, std::mem::size_of_val(arrays.bvh_nodes.as_slice())),
-            (uniform.vertices, std::mem::size_of_val(arrays.vertices.as_slice())),
-            (uniform.triangles, std::mem::size_of_val(arrays.triangles.as_slice())),
-            (1, 0), // the materials: always a buffer
-            (uniform.lights, std::mem::size_of_val(arrays.lights.as_slice())),
-            (uniform.emitter_tris, std::mem::size_of_val(arrays.emitter_tris.as_slice())),
-            (uniform.light_picks, std::mem::size_of_val(arrays.light_picks.as_slice())),
-            (uniform.light_tree, std::mem::size_of_val(arrays.light_tree.nodes.as_slice())),
+        // In binding order (bindings 1-7, then the light tree): uniform length, label, words.
+        let texel_sources: [(u32, &str, &[u8]); 8] = [
+            (uniform.bvh_nodes, "bvh_nodes texels", bytemuck::cast_slice(&arrays.bvh_nodes)),
+            (uniform.vertices, "vertices texels", bytemuck::cast_slice(&arrays.vertices)),
+            (uniform.triangles, "triangles texels", bytemuck::cast_slice(&arrays.triangles)),
+            (1, "materials", &[]), // always a buffer (bindings::MATERIALS)
+            (uniform.lights, "lights texels", bytemuck::cast_slice(&arrays.lights)),
+            (uniform.emitter_tris, "emitter_tris texels", bytemuck::cast_slice(&arrays.emitter_tris)),
+            (uniform.light_picks, "light_picks texels", bytemuck::cast_slice(&arrays.light_picks)),
+            (uniform.light_tree, "light tree texels", bytemuck::cast_slice(&arrays.light_tree.nodes)),
         ];
         let max_rows = device.limits().max_texture_dimension_2d;
         uniform.texel_arrays = self.uniform_capacity::<u32>(memory) > 0
-            && texel_words.iter().all(|&(_, bytes)| texel_rows(bytes) <= max_rows);
-        let texel_views = if uniform.texel_arrays {
-            let queue = &self.gpu.queue;
-            let view = |k: usize, label: &str, bytes: &[u8]| {
-                (texel_words[k].0 == 0).then(|| texel_array(device, queue, label, bytes))
-            };
-            [
-                view(0, "bvh_nodes texels", bytemuck::cast_slice(&arrays.bvh_nodes)),
-                view(1, "vertices texels", bytemuck::cast_slice(&arrays.vertices)),
-                view(2, "triangles texels", bytemuck::cast_slice(&arrays.triangles)),
-                None,
-                view(4, "lights texels", bytemuck::cast_slice(&arrays.lights)),
-                view(5, "emitter_tris texels", bytemuck::cast_slice(&arrays.emitter_tris)),
-                view(6, "light_picks texels", bytemuck::cast_slice(&arrays.light_picks)),
-                view(7, "light tree texels", bytemuck::cast_slice(&arrays.light_tree.nodes)),
-            ]
-        } else {
-            Default::default()
-        };
+            && texel_sources.iter().all(|&(_, _, bytes)| texel_rows(bytes.len()) <= max_rows);
+        let texel_views = texel_sources.map(|(uniform_len, label, bytes)| {
+            (uniform.texel_arrays && uniform_len == 0).then(|| texel_array(device, &self.gpu.queue, label, bytes))
+        });
+        let texel_bytes: u64 = texel_sources
+            .iter()
+            .zip(&texel_views)
+            .filter(|(_, view)| view.is_some())
+            .map(|((_, _, bytes), _)| texel_rows(bytes.len()) as u64 * bindings::TEXEL_ROW as u64 * 16)
+            .sum();
         let max_binding = device.limits().max_storage_buffer_binding_size;
         let too_big = [
             std::mem::size_of_val(arrays.bvh_nodes.as_slice()),
@@ -517,12 +509,7 @@ impl Renderer {
             .chain([&light_tree])
             .map(|b| b.size())
             .sum::<u64>()
-            + texel_views
-                .iter()
-                .zip(texel_words)
-                .filter(|(view, _)| view.is_some())
-                .map(|(_, (_, bytes))| texel_rows(bytes) as u64 * bindings::TEXEL_ROW as u64 * 16)
-                .sum::<u64>();
+            + texel_bytes;
         stats.upload = upload_start.elapsed();
         Ok(GpuScene {
             buffers,
