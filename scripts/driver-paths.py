@@ -16,11 +16,12 @@ import argparse, glob, json, math, os, shutil, statistics, subprocess, sys, temp
 OFF = lambda name: f'std::env::var_os("{name}").is_none()'
 SWITCHES = {
     "NO_BAKED": ("crates/veach/src/render.rs",
-                 "if capacity > 0 { BakedTriangles::new(",
-                 f"if capacity > 0 && {OFF('NO_BAKED')} {{ BakedTriangles::new("),
-    "NO_UNIFORM": ("crates/veach/src/render.rs",
-                   "|| !cpu {",
-                   f"|| !cpu || !{OFF('NO_UNIFORM')} {{"),
+                 "if cpu_arrays { BakedTriangles::new(",
+                 f"if cpu_arrays && {OFF('NO_BAKED')} {{ BakedTriangles::new("),
+    # Storage textures, the uniform materials and baked triangles: every array in storage buffers.
+    "NO_CPU_ARRAYS": ("crates/veach/src/render.rs",
+                      "|| !cpu {",
+                      f"|| !cpu || !{OFF('NO_CPU_ARRAYS')} {{"),
     "NO_FRAME_COPY": ("crates/veach/src/kernel_plan.rs", "d.frame_copy = adapter.cpu;",
                       f"d.frame_copy = {OFF('NO_FRAME_COPY')} && adapter.cpu;"),
     "NO_STRAIGHT_LINE": ("crates/veach/src/kernel_plan.rs", "straight_line_sample: !wavefront &&",

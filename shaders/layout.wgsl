@@ -142,8 +142,8 @@ struct Vertex {
     normal: u32,
 }
 
-// A triangle, in BVH order: its corners (indices into `vertices`) and its material, 16 bytes
-// so that a small scene's triangles fit a uniform array (its area light is in `triangle_lights`).
+// A triangle, in BVH order: its corners (indices into `vertices`) and its material, 16 bytes:
+// one texel or vec4u load (its area light is in `triangle_lights`).
 struct IndexedTriangle {
     v0: u32,
     v1: u32,
@@ -235,10 +235,8 @@ struct Light {
 
 // Triangle i of an area light (an index into `triangles`, whose corners it has), and bucket i of
 // the light's alias table over its triangles by area (crates/veach/src/alias.rs): the bucket keeps
-// `triangle` with probability alias_prob, else gives `alias_triangle`. 16 bytes, without corners:
-// on CPU adapters a table of up to 4096 is a uniform array, where lavapipe loads a storage word
-// lane by lane (the Veach scene's 3,840 triangles: about 0.88x the render time on Mesa 22.3;
-// docs/performance.md, "Emitter triangles by their mesh triangle"); one load gives the bucket's
+// `triangle` with probability alias_prob, else gives `alias_triangle`. 16 bytes, without corners
+// (docs/performance.md, "Emitter triangles by their mesh triangle"): one load gives the bucket's
 // whole choice.
 struct EmitterTriangle {
     alias_prob: f32,

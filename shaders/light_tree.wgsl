@@ -6,8 +6,8 @@
 // probability of a light is the product along its path, which light_tree_pmf retraces for the MIS
 // weight of a direction sample that finds the light.
 
-// `light_tree` (binding 26) is declared by the host (gpu/bindings.rs, wgsl_declarations): a
-// storage array, or a uniform array where the tree fits one.
+// `light_tree` (binding 26) is declared by the host (gpu/bindings.rs, wgsl_declarations) and
+// read by light_tree_node.
 
 // The shading point and normal the tree chooses for, set by prepare_point_selection.
 var<private> tree_point: vec3f;
@@ -136,12 +136,9 @@ fn tree_step(node: LightTreeNode) -> TreeStep {
     return TreeStep(first, second, first_child_share(first, second, i));
 }
 
-// The root node, at index 0. The index is read from frame (no tree has 2^32 - 1 nodes) rather
-// than written as 0: Mesa 22.3's lavapipe "inlines" a uniform array's loads at constant offsets
-// that steer branches, and that pass corrupts its heap while it compiles the kernel (valgrind:
-// invalid writes under vkCreateComputePipelines; glibc aborts in about 1 render of 30).
+// The root node, at index 0.
 fn light_tree_root() -> LightTreeNode {
-    return light_tree_node(u32(frame.light_tree_nodes == 0xffffffffu));
+    return light_tree_node(0u);
 }
 
 // The probability of choosing any one directional light: each gets one share and the tree one

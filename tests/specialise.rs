@@ -94,9 +94,8 @@ fn specialised_kernels_render_the_generic_kernels_image() {
                         "{name}"
                     );
                 }
-                let uniform = special.kernel.driver.uniform;
-                let all_uniform = uniform.bvh_nodes > 0 && uniform.vertices > 0 && uniform.triangles > 0;
-                assert_eq!(all_uniform, cpu, "{name}: scene memory {uniform:?}");
+                let arrays = special.kernel.driver.arrays;
+                assert_eq!(arrays.texels, cpu, "{name}: scene memory {arrays:?}");
                 let baked = special.kernel.driver.baked.as_ref().map(|b| b.len());
                 let small = scene.triangles.len() <= BAKED_TRIANGLES_MAX;
                 assert_eq!(baked, (cpu && small).then_some(scene.triangles.len()), "{name}: baked triangles");
@@ -587,41 +586,12 @@ fn a_wall_at_the_edge_of_the_scene_shadows_a_delta_light_beyond_it() {
     }
 }
 
-/// The light tree read from a uniform array (`UniformArrays::light_tree`, CPU adapters) renders
-/// the image it renders from storage, bit for bit where kernels round alike: the walk and its
-/// retraced probability read the same nodes. On the stress scene of many lights, MIS 1 + 1 with
-/// lights chosen by the tree.
-#[test]
-fn the_light_tree_renders_alike_from_a_uniform_array_and_from_storage() {
-    let cpu = renderer().gpu.adapter_info.device_type == wgpu::DeviceType::Cpu;
-    let scene = load(&veach_scenes::stress::stress_scene("many-lights").unwrap(), "tree-many-lights");
-    let camera = scene.camera(None).unwrap();
-    let settings = RenderSettings {
-        width: 32,
-        height: 24,
-        spp: 4,
-        strategy: Strategy::Mis,
-        light_samples: 1,
-        brdf_samples: 1,
-        light_selection: LightSelection::Tree,
-        seed: 5,
-        ..Default::default()
-    };
-    let storage =
-        render(&renderer().upload_scene_with(&scene, veach::render::BvhMemory::Storage).unwrap(), &settings, &camera);
-    let auto = render(&upload(&scene), &settings, &camera);
-    assert_eq!(storage.kernel.driver.uniform.light_tree, 0);
-    assert_eq!(auto.kernel.driver.uniform.light_tree > 0, cpu, "a CPU adapter reads the tree from a uniform array");
-    assert!(storage.sum.iter().any(|p| p[0] > 0.0), "the scene renders black");
-    assert_same_image("light-tree-uniform", "uniform tree against storage", &auto.sum, &storage.sum, settings.width);
-}
-
-/// Scene arrays too large for uniform arrays are read from `rgba32uint` textures on CPU adapters
-/// (`UniformArrays::texel_arrays`; Mesa 22.3 loads storage lane by lane): the same image, bit for
-/// bit, as from storage, since each reader returns the same words. 5,000 triangle lights among
-/// 12,000 triangles over a floor make every array that can be a texture one: the BVH (too large
-/// for a uniform array even with larger leaves), vertices, triangles, lights, emitter triangles,
-/// light picks and the light tree; MIS 1 + 1 with lights chosen by the tree.
+/// Scene arrays are read from `rgba32uint` storage textures on CPU adapters
+/// (`SceneArrayMemory::texels`; Mesa 22.3 loads storage lane by lane): the same image, bit for
+/// bit, as from storage buffers, since each reader returns the same words. 5,000 triangle lights
+/// among 12,000 triangles over a floor, so that every array has rows of texels to get wrong: the
+/// BVH, vertices, triangles, lights, emitter triangles, light picks, the light tree and the
+/// triangles' lights; MIS 1 + 1 with lights chosen by the tree.
 #[test]
 fn scene_arrays_render_alike_from_textures_and_from_storage() {
     let cpu = renderer().gpu.adapter_info.device_type == wgpu::DeviceType::Cpu;
@@ -641,13 +611,8 @@ fn scene_arrays_render_alike_from_textures_and_from_storage() {
     let storage =
         render(&renderer().upload_scene_with(&scene, veach::render::BvhMemory::Storage).unwrap(), &settings, &camera);
     let auto = render(&upload(&scene), &settings, &camera);
-    assert!(!storage.kernel.driver.uniform.texel_arrays);
-    let u = auto.kernel.driver.uniform;
-    assert_eq!(u.texel_arrays, cpu, "a CPU adapter reads large arrays from textures");
-    if cpu {
-        let lengths = [u.bvh_nodes, u.vertices, u.triangles, u.lights, u.emitter_tris, u.light_picks, u.light_tree];
-        assert_eq!(lengths, [0; 7], "every array but the materials is too large for a uniform array");
-    }
+    assert!(!storage.kernel.driver.arrays.texels);
+    assert_eq!(auto.kernel.driver.arrays.texels, cpu, "a CPU adapter reads the arrays from textures");
     assert!(storage.sum.iter().any(|p| p[0] > 0.0), "the scene renders black");
     assert_same_image("texel-arrays", "textures against storage", &auto.sum, &storage.sum, settings.width);
 }

@@ -1,6 +1,7 @@
-//! Times dependent loads from a storage array, a uniform array and an rgba32uint texture, at
-//! indices that differ per lane: how the driver gathers scene data (the texture as
-//! `veach::render::texel_array` uploads a scene array on CPU adapters).
+//! Times dependent loads from a storage array, a uniform array, a sampled rgba32uint texture and
+//! a read-only rgba32uint storage texture, at indices that differ per lane: how the driver gathers
+//! scene data (the storage texture as `veach::render::texel_array` uploads a scene array on CPU
+//! adapters).
 //!
 //!     cargo run --release -p veach --example load_probe -- [ELEMENTS]
 
@@ -17,6 +18,10 @@ fn shader(kind: &str, elements: u32) -> String {
         "uniform" => {
             (format!("@group(0) @binding(0) var<uniform> data: array<vec4u, {elements}>;"), "data[i]".to_string())
         }
+        "storage-texture" => (
+            "@group(0) @binding(0) var data: texture_storage_2d<rgba32uint, read>;".to_string(),
+            format!("textureLoad(data, vec2u(i % {WIDTH}u, i / {WIDTH}u))"),
+        ),
         _ => (
             "@group(0) @binding(0) var data: texture_2d<u32>;".to_string(),
             format!("textureLoad(data, vec2u(i % {WIDTH}u, i / {WIDTH}u), 0)"),
@@ -56,8 +61,11 @@ fn main() {
         usage: wgpu::BufferUsages::STORAGE,
         mapped_at_creation: false,
     });
-    let kinds: Vec<&str> =
-        if elements <= 4096 { vec!["storage", "uniform", "texture"] } else { vec!["storage", "texture"] };
+    let kinds: Vec<&str> = if elements <= 4096 {
+        vec!["storage", "uniform", "texture", "storage-texture"]
+    } else {
+        vec!["storage", "texture", "storage-texture"]
+    };
     for kind in kinds {
         let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
             label: None,
@@ -75,8 +83,30 @@ fn main() {
         let buffer;
         let view;
         let resource = match kind {
-            "texture" => {
+            "storage-texture" => {
                 view = veach::render::texel_array(&device, &queue, "probe texels", bytes);
+                wgpu::BindingResource::TextureView(&view)
+            }
+            "texture" => {
+                let rows = elements.div_ceil(WIDTH);
+                let mut padded = bytes.to_vec();
+                padded.resize((rows * WIDTH * 16) as usize, 0);
+                let texture = device.create_texture_with_data(
+                    &queue,
+                    &wgpu::TextureDescriptor {
+                        label: None,
+                        size: wgpu::Extent3d { width: WIDTH, height: rows, depth_or_array_layers: 1 },
+                        mip_level_count: 1,
+                        sample_count: 1,
+                        dimension: wgpu::TextureDimension::D2,
+                        format: wgpu::TextureFormat::Rgba32Uint,
+                        usage: wgpu::TextureUsages::TEXTURE_BINDING,
+                        view_formats: &[],
+                    },
+                    wgpu::util::TextureDataOrder::LayerMajor,
+                    &padded,
+                );
+                view = texture.create_view(&Default::default());
                 wgpu::BindingResource::TextureView(&view)
             }
             _ => {
@@ -112,7 +142,7 @@ fn main() {
             times.push(t.elapsed().as_secs_f64());
         }
         println!(
-            "{kind:8} {elements:8} elements: {:?}",
+            "{kind:15} {elements:8} elements: {:?}",
             &times[1..].iter().map(|t| format!("{t:.3}")).collect::<Vec<_>>()
         );
     }

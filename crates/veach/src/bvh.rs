@@ -48,12 +48,6 @@ pub fn build_bvh(triangles: &[Triangle]) -> Bvh {
     build_bvh_with(triangles, build_params(2.0))
 }
 
-/// Leaves collapsed at obvhs's own node cost of 3 triangle tests: about a third fewer nodes than
-/// `build_bvh`'s (`gpu::bvh_nodes::build_bvh_fitting`).
-pub fn build_bvh_larger_leaves(triangles: &[Triangle]) -> Bvh {
-    build_bvh_with(triangles, build_params(3.0))
-}
-
 fn build_bvh_with(triangles: &[Triangle], params: BvhBuildParams) -> Bvh {
     let start = Instant::now();
     if triangles.is_empty() {

@@ -133,46 +133,21 @@ impl SceneFeatures {
     }
 }
 
-/// The scene arrays a kernel reads from uniform buffers instead of storage buffers, each as a
-/// uniform array of this many elements (0: storage), in binding order. On CPU adapters, where a scene's array fits
-/// in 64 KiB (`GpuScene`, `BvhMemory`): lavapipe gathers a uniform array's elements where it
-/// loads a storage buffer's lane by lane (docs/performance.md, "Small BVHs in a uniform buffer",
-/// "Small scenes' triangles in uniform buffers").
+/// Where a kernel reads the scene's arrays from, as the scene's upload chose (`GpuScene`,
+/// `BvhMemory`). GPUs read storage buffers. CPU adapters read every array that the kernels read
+/// through a reader function (the BVH's nodes, vertices, triangles, lights, emitter triangles,
+/// light picks, `triangle_lights` and the light tree) from a read-only `rgba32uint` storage
+/// texture (`gpu::bindings::TEXEL_ROW`): Mesa 22.3's lavapipe loads a storage buffer's word lane
+/// by lane, each through the stack, and gathers a storage texture's texels in a few vector
+/// instructions, faster than it gathers a uniform array's elements (docs/performance.md, "Scene
+/// arrays in storage textures").
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub struct UniformArrays {
-    pub bvh_nodes: u32,
-    pub vertices: u32,
-    pub triangles: u32,
-    pub materials: u32,
-    pub lights: u32,
-    pub emitter_tris: u32,
-    pub light_picks: u32,
-    /// Binding 23's `triangle_lights` as a uniform array of this many vec4u, four triangles'
-    /// lights each (0: storage).
-    pub triangle_lights: u32,
-    /// Binding 26's `light_tree` as a uniform array of this many nodes (0: storage): the tree's
-    /// walk loads two nodes a step ("The light tree in a uniform array").
-    pub light_tree: u32,
-    /// The BVH's nodes, the vertices, the triangles and the light tree, where not uniform arrays,
-    /// are read from `rgba32uint` textures (`gpu::bindings::TEXEL_ROW`), not from storage: on CPU
-    /// adapters. Mesa 22.3's lavapipe loads a storage word lane by lane, moving each through the
-    /// stack, and gathers a texture's texels ("Scene arrays in textures").
-    pub texel_arrays: bool,
-}
-
-impl UniformArrays {
-    /// The lengths in binding order (bindings 1 to 7, `gpu::bindings`).
-    pub fn lengths(&self) -> [u32; 7] {
-        [
-            self.bvh_nodes,
-            self.vertices,
-            self.triangles,
-            self.materials,
-            self.lights,
-            self.emitter_tris,
-            self.light_picks,
-        ]
-    }
+pub struct SceneArrayMemory {
+    /// The materials, read by index where they are used, as a uniform array of this many (0:
+    /// storage): on CPU adapters, where they fit in 64 KiB.
+    pub uniform_materials: u32,
+    /// The arrays read through reader functions are storage textures (CPU adapters).
+    pub texels: bool,
 }
 
 #[cfg(test)]

@@ -9,7 +9,7 @@
 //! wavefront), the traversal's stack, and one group of driver tuning (`DriverTuning`), which only
 //! changes speed, never the image beyond the order of a sum.
 
-use crate::features::{SceneFeatures, UniformArrays};
+use crate::features::{SceneArrayMemory, SceneFeatures};
 use crate::gpu::baked_triangles::BakedTriangles;
 use crate::gpu::camera_footprints::{CameraFootprints, FilmFrame};
 use crate::scene::Camera;
@@ -99,9 +99,9 @@ pub struct SampleShape {
 /// the workgroup.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct DriverTuning {
-    /// Scene arrays read from uniform buffers (`GpuScene` decides, for small scenes on CPU
+    /// Where the scene arrays are read from (`GpuScene` decides: storage textures on CPU
     /// adapters).
-    pub uniform: UniformArrays,
+    pub arrays: SceneArrayMemory,
     /// Each entry point copies the frame's parameters into a private variable (CPU adapters:
     /// lavapipe loads a storage word lane by lane at every read).
     pub frame_copy: bool,
@@ -133,7 +133,7 @@ impl DriverTuning {
     /// No tuning: the generic kernel's, with the default workgroup.
     pub fn none() -> DriverTuning {
         DriverTuning {
-            uniform: UniformArrays::default(),
+            arrays: SceneArrayMemory::default(),
             frame_copy: false,
             baked: None,
             camera_list: false,
@@ -152,8 +152,8 @@ pub struct UploadedScene<'a> {
     pub features: &'a SceneFeatures,
     /// The traversal stack its BVH needs.
     pub bvh_stack: u32,
-    /// Its arrays that are uniform buffers.
-    pub uniform: UniformArrays,
+    /// Where its arrays are.
+    pub arrays: SceneArrayMemory,
     /// Its triangles, where they are compiled into the kernel.
     pub baked: Option<&'a Arc<BakedTriangles>>,
     /// It has an emitters' grid.
@@ -300,12 +300,12 @@ impl KernelPlan {
         }
     }
 
-    /// The tuning that follows from what the scene's upload chose (uniform arrays, baked
+    /// The tuning that follows from what the scene's upload chose (array memory, baked
     /// triangles, the emitters' grid) and where the camera is.
     fn driver_tuning(&mut self, scene: UploadedScene, camera: &Camera, adapter: &AdapterProfile) {
         let d = &mut self.driver;
-        // The scene's small arrays are also uniform buffers where that pays (`upload_scene`).
-        d.uniform = scene.uniform;
+        // The scene's arrays are where its upload put them (`upload_scene`).
+        d.arrays = scene.arrays;
         d.frame_copy = adapter.cpu;
         d.baked = scene.baked.cloned();
         // A BVH kernel's direction samples search the emitters' grid where the scene has one
@@ -371,7 +371,7 @@ impl KernelPlan {
     /// How the plan-dependent bindings are declared (`gpu::bindings::wgsl_declarations`).
     pub fn declared_bindings(&self) -> crate::gpu::bindings::DeclaredBindings {
         crate::gpu::bindings::DeclaredBindings {
-            uniform: self.driver.uniform,
+            arrays: self.driver.arrays,
             frame_copy: self.driver.frame_copy,
             emitter_grid: self.driver.emitter_grid,
             bvh_stack: self.bvh_stack,
@@ -685,15 +685,15 @@ mod tests {
     #[test]
     fn the_plan_follows_the_scene_the_settings_and_the_adapter() {
         use super::{AdapterProfile, DriverTuning, UploadedScene};
-        use crate::features::UniformArrays;
+        use crate::features::SceneArrayMemory;
         use crate::scene::Camera;
         use glam::Vec3;
         let features = SceneFeatures { area_lights: true, many_lights: true, ..SceneFeatures::default() };
-        let uniform = UniformArrays { bvh_nodes: 64, ..UniformArrays::default() };
+        let arrays = SceneArrayMemory { uniform_materials: 64, texels: true };
         let scene = UploadedScene {
             features: &features,
             bvh_stack: 160,
-            uniform,
+            arrays,
             baked: None,
             emitter_grid: true,
             lit_boxes: false,
@@ -710,10 +710,10 @@ mod tests {
         let plan = |settings: &RenderSettings, adapter: &AdapterProfile| {
             KernelPlan::for_render(scene, settings, &camera, 0..settings.height, true, adapter).plan
         };
-        // Mesa 25's lavapipe: the upload's uniform arrays and grid, a copy of the frame.
+        // Mesa 25's lavapipe: the upload's array memory and grid, a copy of the frame.
         let lavapipe = plan(&mis, &profile(AutoExecution::MegakernelOnLavapipe, true));
         assert!(lavapipe.driver.frame_copy && lavapipe.driver.emitter_grid);
-        assert_eq!(lavapipe.driver.uniform, uniform);
+        assert_eq!(lavapipe.driver.arrays, arrays);
         assert!(!lavapipe.wavefront);
         assert_eq!(lavapipe.bvh_stack, 160);
         // NVIDIA: the wavefront for MIS, with its workgroup; the same semantic axes.

@@ -3,10 +3,10 @@
 
 use crate::bvh::build_bvh;
 use crate::error::{Error, Result};
-use crate::features::{SceneFeatures, UniformArrays};
+use crate::features::{SceneArrayMemory, SceneFeatures};
 use crate::gpu::baked_triangles::BakedTriangles;
 use crate::gpu::bindings;
-use crate::gpu::bvh_nodes::{build_bvh_fitting, gpu_node_count};
+use crate::gpu::bvh_nodes::gpu_node_count;
 use crate::gpu::context::GpuContext;
 use crate::gpu::emitter_grid::EmitterGrid;
 use crate::gpu::layout::{self, FrameParams};
@@ -40,12 +40,11 @@ pub struct SceneUploadStats {
 pub struct GpuScene {
     /// bvh_nodes … light_picks (bindings 1-7), then triangle_lights.
     pub(crate) buffers: Vec<wgpu::Buffer>,
-    /// The arrays that are uniform buffers too, with the length they are padded to (see
-    /// `BvhMemory`).
-    pub(crate) uniform: UniformArrays,
-    /// Texture copies of the scene arrays of bindings 1-7 (but the materials) and of the light
-    /// tree, where `uniform.texel_arrays` reads them from textures (`None` for uniform arrays).
-    pub(crate) texel_views: [Option<wgpu::TextureView>; 8],
+    /// Where its kernels read the arrays from (see `BvhMemory`).
+    pub(crate) arrays: SceneArrayMemory,
+    /// Storage texture copies of the scene arrays of bindings 1-7 (but the materials: `None`),
+    /// then of the light tree and `triangle_lights`, where `arrays.texels`.
+    pub(crate) texel_views: [Option<wgpu::TextureView>; 9],
     /// The triangles compiled into the kernel instead of a BVH, for small scenes on CPU adapters
     /// (`BvhMemory::Auto`).
     pub(crate) baked: Option<Arc<BakedTriangles>>,
@@ -117,7 +116,7 @@ impl GpuScene {
         crate::kernel_plan::UploadedScene {
             features: &self.features,
             bvh_stack: self.bvh_stack(),
-            uniform: self.uniform,
+            arrays: self.arrays,
             baked: self.baked.as_ref(),
             emitter_grid: self.emitter_grid.is_some(),
             lit_boxes: self.light_tree_lit_boxes(),
@@ -135,7 +134,7 @@ impl GpuScene {
 /// `RenderOutput::kernel_creation`, outside the render time.
 pub(crate) struct Kernel {
     pub(crate) textures: bool,
-    /// It reads the arrays that are not uniform from the scene's textures (`GpuScene::texel_views`).
+    /// It reads the scene's arrays from its storage textures (`GpuScene::texel_views`).
     pub(crate) texel_arrays: bool,
     /// It reads the emitters' grid (`KernelPlan::emitter_grid`).
     pub(crate) emitter_grid: bool,
@@ -180,8 +179,8 @@ fn texel_rows(bytes: usize) -> u32 {
     (bytes.div_ceil(16).div_ceil(bindings::TEXEL_ROW as usize)).max(1) as u32
 }
 
-/// An `rgba32uint` texture of `bytes` (a multiple of 16), TEXEL_ROW texels a row, the last row
-/// padded with zeros: how CPU adapters read a large scene array (`UniformArrays::texel_arrays`).
+/// An `rgba32uint` storage texture of `bytes` (a multiple of 16), TEXEL_ROW texels a row, the last
+/// row padded with zeros: how CPU adapters read a scene array (`SceneArrayMemory::texels`).
 pub fn texel_array(device: &wgpu::Device, queue: &wgpu::Queue, label: &str, bytes: &[u8]) -> wgpu::TextureView {
     let rows = texel_rows(bytes.len());
     let mut padded = bytes.to_vec();
@@ -195,7 +194,7 @@ pub fn texel_array(device: &wgpu::Device, queue: &wgpu::Queue, label: &str, byte
             sample_count: 1,
             dimension: wgpu::TextureDimension::D2,
             format: wgpu::TextureFormat::Rgba32Uint,
-            usage: wgpu::TextureUsages::TEXTURE_BINDING,
+            usage: wgpu::TextureUsages::STORAGE_BINDING,
             view_formats: &[],
         },
         wgpu::util::TextureDataOrder::LayerMajor,
@@ -208,16 +207,11 @@ pub fn texel_array(device: &wgpu::Device, queue: &wgpu::Queue, label: &str, byte
 /// emitter triangles, light picks) from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum BvhMemory {
-    /// A uniform buffer for each array that fits in one (the BVH with larger leaves if that makes
-    /// it fit) where the adapter is a CPU (lavapipe); storage buffers otherwise. lavapipe gathers a
-    /// uniform array's elements with vector loads where it loads a storage buffer's lane by lane:
-    /// the BVH made the Cornell box 0.86x the render time, the Veach scene 0.84-0.90x, the
-    /// vertices and triangles then 0.94x and 0.87x, the other four 0.93-0.98x on Mesa 22.3
-    /// (docs/performance.md, "Small BVHs in a uniform buffer", "Small scenes' triangles in
-    /// uniform buffers"). GPUs keep storage: their constant caches serialise
-    /// loads from different addresses within a warp (CUDA C++ Programming Guide, "Constant
-    /// Memory"), which is what a traversal does; not measured here. On CPU adapters the arrays
-    /// too large for a uniform buffer are read from textures (`UniformArrays::texel_arrays`).
+    /// On CPU adapters, every array read through a reader function in a read-only storage
+    /// texture, and the materials in a uniform buffer where they fit: Mesa 22.3's lavapipe loads a
+    /// storage buffer's word lane by lane, each through the stack, and gathers a storage texture's
+    /// texels, faster than a uniform array's elements (docs/performance.md, "Scene arrays in
+    /// storage textures"). GPUs keep storage buffers.
     Auto,
     /// A storage buffer, whatever its size and adapter (`veach scale`, so that its sizes compare
     /// like for like; tests of the path GPUs take).
@@ -231,8 +225,7 @@ pub enum BvhMemory {
     StorageWithEmitterGrid,
 }
 
-/// The largest uniform array: 64 KiB, the common `maxUniformBufferRange` (1024 BVH nodes, 4096
-/// vertices, triangles or light picks, 682 lights, 1365 emitter triangles).
+/// The largest uniform array: 64 KiB, the common `maxUniformBufferRange` (1024 materials).
 const UNIFORM_ARRAY_MAX_BYTES: u64 = 64 << 10;
 
 /// The length of an array of `len` elements as a uniform array where it has at most `capacity`,
@@ -255,14 +248,10 @@ fn pad_for_uniform<T: Default + Clone>(array: &mut Vec<T>, capacity: usize) -> u
     n as u32
 }
 
-/// `pad_for_uniform` for `triangle_lights`, four to a vec4u: the uniform array's length in vec4u
-/// where the lights fit `capacity` of them (padded with NO_LIGHT), or 0.
-fn pad_triangle_lights_for_uniform(lights: &mut Vec<u32>, capacity: usize) -> u32 {
-    let n = uniform_length(lights.len().div_ceil(4), capacity);
-    if n > 0 {
-        lights.resize(4 * n, layout::NO_LIGHT);
-    }
-    n as u32
+/// `triangle_lights` padded with NO_LIGHT to whole vec4u, four triangles' lights each, as
+/// `triangle_light` reads them (`gpu::bindings::wgsl_declarations`).
+fn pad_triangle_lights(lights: &mut Vec<u32>) {
+    lights.resize(lights.len().div_ceil(4).max(1) * 4, layout::NO_LIGHT);
 }
 
 impl Renderer {
@@ -280,7 +269,7 @@ impl Renderer {
         let entry_points: &[&str] =
             if key.wavefront { &shaders::WAVEFRONT_ENTRY_POINTS } else { &[shaders::RENDER_ENTRY_POINT] };
         let extra = bindings::ExtraBindings {
-            uniform: key.driver.uniform,
+            arrays: key.driver.arrays,
             textures: key.textures.module,
             deferred: key.wavefront,
             test_io: false,
@@ -308,7 +297,7 @@ impl Renderer {
         let wavefront = pipelines.next().zip(pipelines.next());
         let kernel = Arc::new(Kernel {
             textures: key.textures.module,
-            texel_arrays: key.driver.uniform.texel_arrays,
+            texel_arrays: key.driver.arrays.texels,
             emitter_grid: key.driver.emitter_grid,
             pipeline,
             wavefront,
@@ -323,14 +312,14 @@ impl Renderer {
         self.kernels.lock().expect("kernel cache").len()
     }
 
-    /// Builds the BVH and uploads the scene, the BVH in a uniform buffer where it fits and that
-    /// pays (`BvhMemory::Auto`).
+    /// Builds the BVH and uploads the scene, its arrays where this adapter reads them best
+    /// (`BvhMemory::Auto`).
     pub fn upload_scene(&self, scene: &Scene) -> Result<GpuScene> {
         self.upload_scene_with(scene, BvhMemory::Auto)
     }
 
     /// Elements of type T a uniform buffer may hold on this adapter, 0 where the arrays stay in
-    /// storage.
+    /// storage buffers (a GPU, or `BvhMemory::Storage`).
     fn uniform_capacity<T>(&self, memory: BvhMemory) -> usize {
         let cpu = self.gpu.is_cpu();
         if matches!(memory, BvhMemory::Storage | BvhMemory::StorageWithEmitterGrid) || !cpu {
@@ -349,9 +338,9 @@ impl Renderer {
                 scene.triangles.len()
             )));
         }
-        let capacity = self.uniform_capacity::<layout::BvhNode>(memory);
-        let bvh =
-            if capacity > 0 { build_bvh_fitting(&scene.triangles, capacity) } else { build_bvh(&scene.triangles) };
+        // A CPU adapter, and the arrays not forced into storage: storage textures.
+        let cpu_arrays = self.uniform_capacity::<u32>(memory) > 0;
+        let bvh = build_bvh(&scene.triangles);
         let mut stats = SceneUploadStats {
             bvh_build: bvh.build_time,
             bvh_nodes: gpu_node_count(&bvh),
@@ -363,8 +352,8 @@ impl Renderer {
         let mut features = SceneFeatures::detect(scene);
         features.rectangle_lights = features.rectangle_lights && rectangle_lights_seen_wide(scene, &bvh);
         let mut arrays: SceneArrays = build_scene_arrays(scene, &features, &bvh);
-        // Where the arrays may be uniform (a CPU adapter, `BvhMemory::Auto`), a small scene's
-        // triangles are compiled into the kernel instead (before the arrays are padded).
+        // On a CPU adapter (`BvhMemory::Auto`), a small scene's triangles are compiled into the
+        // kernel instead.
         // Where the driver branches around untaken code, its compact groups go behind boxes
         // and direction samples search the emitters' list (BakedTriangles::emitter_list).
         let info = &self.gpu.adapter_info;
@@ -372,7 +361,7 @@ impl Renderer {
         let branches = memory == BvhMemory::AutoWithBoxes || !masked;
         let group_nodes = if branches { &bvh.nodes[..] } else { &[] };
         let baked =
-            if capacity > 0 { BakedTriangles::new(&arrays.vertices, &arrays.triangles, group_nodes) } else { None };
+            if cpu_arrays { BakedTriangles::new(&arrays.vertices, &arrays.triangles, group_nodes) } else { None };
         let baked = baked.map(|mut baked| {
             let directional = scene.lights.iter().any(|l| matches!(l.kind, LightKind::Directional { .. }));
             let delta: Vec<glam::Vec3> = scene
@@ -395,7 +384,7 @@ impl Renderer {
         // list, and not on Mesa 22.3 for the same reason (BakedTriangles::set_emitter_list; there
         // it made both ends of `veach scale`'s light sweep slower). Only CPU adapters, where it was
         // measured (docs/performance.md, "The emitters' grid"). Built before the arrays are
-        // padded for uniform buffers.
+        // padded.
         let forced_grid = memory == BvhMemory::StorageWithEmitterGrid;
         let grid_pays_here = self.gpu.is_cpu() && !masked;
         let emitter_grid = (baked.is_none() && (forced_grid || grid_pays_here))
@@ -404,52 +393,36 @@ impl Renderer {
             .filter(|g| forced_grid || g.pays());
         let bvh_stack_bound = crate::gpu::bvh_nodes::stack_bound(&arrays.bvh_nodes);
         let emitter_triangles = arrays.emitter_tris.len() as u32;
-        let mut uniform = UniformArrays {
-            bvh_nodes: pad_for_uniform(&mut arrays.bvh_nodes, capacity),
-            vertices: pad_for_uniform(&mut arrays.vertices, self.uniform_capacity::<layout::Vertex>(memory)),
-            triangles: pad_for_uniform(&mut arrays.triangles, self.uniform_capacity::<layout::IndexedTriangle>(memory)),
-            materials: pad_for_uniform(&mut arrays.materials, self.uniform_capacity::<layout::Material>(memory)),
-            lights: pad_for_uniform(&mut arrays.lights, self.uniform_capacity::<layout::Light>(memory)),
-            emitter_tris: pad_for_uniform(
-                &mut arrays.emitter_tris,
-                self.uniform_capacity::<layout::EmitterTriangle>(memory),
-            ),
-            light_picks: pad_for_uniform(&mut arrays.light_picks, self.uniform_capacity::<layout::LightPick>(memory)),
-            triangle_lights: pad_triangle_lights_for_uniform(
-                &mut arrays.triangle_lights,
-                self.uniform_capacity::<[u32; 4]>(memory),
-            ),
-            light_tree: pad_for_uniform(
-                &mut arrays.light_tree.nodes,
-                self.uniform_capacity::<layout::LightTreeNode>(memory),
-            ),
-            texel_arrays: false,
-        };
+        pad_triangle_lights(&mut arrays.triangle_lights);
+        let uniform_materials =
+            pad_for_uniform(&mut arrays.materials, self.uniform_capacity::<layout::Material>(memory));
         let device = &self.gpu.device;
-        // On CPU adapters (where arrays may be uniform), the arrays read through a function
-        // are read from textures where they are not uniform, if every one fits a texture.
-        // In binding order (bindings 1-7, then the light tree): uniform length, label, words.
-        let texel_sources: [(u32, &str, &[u8]); 8] = [
-            (uniform.bvh_nodes, "bvh_nodes texels", bytemuck::cast_slice(&arrays.bvh_nodes)),
-            (uniform.vertices, "vertices texels", bytemuck::cast_slice(&arrays.vertices)),
-            (uniform.triangles, "triangles texels", bytemuck::cast_slice(&arrays.triangles)),
-            (1, "materials", &[]), // always a buffer (bindings::MATERIALS)
-            (uniform.lights, "lights texels", bytemuck::cast_slice(&arrays.lights)),
-            (uniform.emitter_tris, "emitter_tris texels", bytemuck::cast_slice(&arrays.emitter_tris)),
-            (uniform.light_picks, "light_picks texels", bytemuck::cast_slice(&arrays.light_picks)),
-            (uniform.light_tree, "light tree texels", bytemuck::cast_slice(&arrays.light_tree.nodes)),
+        // On CPU adapters, the arrays read through a reader function are read from storage
+        // textures, if every one fits a texture. In binding order (bindings 1-7, then the light
+        // tree and triangle_lights): label, words.
+        let texel_sources: [(&str, &[u8]); 9] = [
+            ("bvh_nodes texels", bytemuck::cast_slice(&arrays.bvh_nodes)),
+            ("vertices texels", bytemuck::cast_slice(&arrays.vertices)),
+            ("triangles texels", bytemuck::cast_slice(&arrays.triangles)),
+            ("materials", &[]), // never a texture (bindings::MATERIALS)
+            ("lights texels", bytemuck::cast_slice(&arrays.lights)),
+            ("emitter_tris texels", bytemuck::cast_slice(&arrays.emitter_tris)),
+            ("light_picks texels", bytemuck::cast_slice(&arrays.light_picks)),
+            ("light tree texels", bytemuck::cast_slice(&arrays.light_tree.nodes)),
+            ("triangle_lights texels", bytemuck::cast_slice(&arrays.triangle_lights)),
         ];
         let max_rows = device.limits().max_texture_dimension_2d;
-        uniform.texel_arrays = self.uniform_capacity::<u32>(memory) > 0
-            && texel_sources.iter().all(|&(_, _, bytes)| texel_rows(bytes.len()) <= max_rows);
-        let texel_views = texel_sources.map(|(uniform_len, label, bytes)| {
-            (uniform.texel_arrays && uniform_len == 0).then(|| texel_array(device, &self.gpu.queue, label, bytes))
+        let texels = cpu_arrays && texel_sources.iter().all(|&(_, bytes)| texel_rows(bytes.len()) <= max_rows);
+        let scene_arrays = SceneArrayMemory { uniform_materials, texels };
+        let texel_views = std::array::from_fn(|k| {
+            let (label, bytes) = texel_sources[k];
+            (texels && k != bindings::MATERIALS).then(|| texel_array(device, &self.gpu.queue, label, bytes))
         });
         let texel_bytes: u64 = texel_sources
             .iter()
             .zip(&texel_views)
             .filter(|(_, view)| view.is_some())
-            .map(|((_, _, bytes), _)| texel_rows(bytes.len()) as u64 * bindings::TEXEL_ROW as u64 * 16)
+            .map(|((_, bytes), _)| texel_rows(bytes.len()) as u64 * bindings::TEXEL_ROW as u64 * 16)
             .sum();
         let max_binding = device.limits().max_storage_buffer_binding_size;
         let too_big = [
@@ -479,16 +452,17 @@ impl Renderer {
                 )));
             }
         }
-        let also_uniform = |n: u32| if n > 0 { wgpu::BufferUsages::UNIFORM } else { wgpu::BufferUsages::empty() };
+        let none = wgpu::BufferUsages::empty();
+        let materials_usage = if uniform_materials > 0 { wgpu::BufferUsages::UNIFORM } else { none };
         let buffers = vec![
-            scene_buffer(device, "bvh_nodes", &arrays.bvh_nodes, also_uniform(uniform.bvh_nodes)),
-            scene_buffer(device, "vertices", &arrays.vertices, also_uniform(uniform.vertices)),
-            scene_buffer(device, "triangles", &arrays.triangles, also_uniform(uniform.triangles)),
-            scene_buffer(device, "materials", &arrays.materials, also_uniform(uniform.materials)),
-            scene_buffer(device, "lights", &arrays.lights, also_uniform(uniform.lights)),
-            scene_buffer(device, "emitter_tris", &arrays.emitter_tris, also_uniform(uniform.emitter_tris)),
-            scene_buffer(device, "light_picks", &arrays.light_picks, also_uniform(uniform.light_picks)),
-            scene_buffer(device, "triangle_lights", &arrays.triangle_lights, also_uniform(uniform.triangle_lights)),
+            scene_buffer(device, "bvh_nodes", &arrays.bvh_nodes, none),
+            scene_buffer(device, "vertices", &arrays.vertices, none),
+            scene_buffer(device, "triangles", &arrays.triangles, none),
+            scene_buffer(device, "materials", &arrays.materials, materials_usage),
+            scene_buffer(device, "lights", &arrays.lights, none),
+            scene_buffer(device, "emitter_tris", &arrays.emitter_tris, none),
+            scene_buffer(device, "light_picks", &arrays.light_picks, none),
+            scene_buffer(device, "triangle_lights", &arrays.triangle_lights, none),
         ];
         // Scenes without textures upload none: their kernels do not bind any.
         let texture_buffers = arrays.textures.as_ref().map(|t| {
@@ -501,7 +475,7 @@ impl Renderer {
         let emitter_grid = emitter_grid
             .filter(|g| (g.words.len() as u64 * 4) <= max_binding)
             .map(|g| storage_buffer(device, "emitter grid", &g.words));
-        let light_tree = scene_buffer(device, "light tree", &arrays.light_tree.nodes, also_uniform(uniform.light_tree));
+        let light_tree = scene_buffer(device, "light tree", &arrays.light_tree.nodes, none);
         stats.gpu_scene_bytes = buffers
             .iter()
             .chain(texture_buffers.iter().flatten())
@@ -513,7 +487,7 @@ impl Renderer {
         stats.upload = upload_start.elapsed();
         Ok(GpuScene {
             buffers,
-            uniform,
+            arrays: scene_arrays,
             texel_views,
             baked,
             texture_buffers,
@@ -556,7 +530,10 @@ impl Renderer {
         }
         entries.push(wgpu::BindGroupEntry {
             binding: bindings::TRIANGLE_LIGHTS,
-            resource: triangle_lights.as_entire_binding(),
+            resource: match texels(8) {
+                Some(view) => wgpu::BindingResource::TextureView(view),
+                None => triangle_lights.as_entire_binding(),
+            },
         });
         entries.push(wgpu::BindGroupEntry {
             binding: bindings::LIGHT_TREE,
@@ -651,28 +628,23 @@ impl Renderer {
 
 #[cfg(test)]
 mod tests {
-    use super::{layout, pad_triangle_lights_for_uniform};
+    use super::{layout, pad_triangle_lights};
 
-    /// Triangle t's light is word t % 4 of vec4u t / 4 (layout.wgsl's rewritten `triangle_light`),
-    /// the array padded with NO_LIGHT to a power of two of at least 64 vec4u; lights that do not
-    /// fit stay as they are, in storage.
+    /// Triangle t's light is word t % 4 of vec4u t / 4 (`triangle_light`): the array padded with
+    /// NO_LIGHT to whole vec4u, at least one.
     #[test]
     fn triangle_lights_pack_four_to_a_vec4u() {
         let lights: Vec<u32> = (0..10).map(|t| if t % 3 == 0 { layout::NO_LIGHT } else { t * 7 }).collect();
         let mut packed = lights.clone();
-        assert_eq!(pad_triangle_lights_for_uniform(&mut packed, 4096), 64);
-        assert_eq!(packed.len(), 4 * 64);
+        pad_triangle_lights(&mut packed);
+        assert_eq!(packed.len(), 12);
         assert_eq!(&packed[..10], &lights[..]);
         assert!(packed[10..].iter().all(|&l| l == layout::NO_LIGHT));
-        // 16,384 triangles fill 4096 vec4u; one more does not fit.
-        let mut full = vec![1u32; 4 * 4096];
-        assert_eq!(pad_triangle_lights_for_uniform(&mut full, 4096), 4096);
-        let mut over = vec![1u32; 4 * 4096 + 1];
-        assert_eq!(pad_triangle_lights_for_uniform(&mut over, 4096), 0);
-        assert_eq!(over.len(), 4 * 4096 + 1);
-        // No capacity (a GPU, or BvhMemory::Storage): storage.
-        let mut storage = lights.clone();
-        assert_eq!(pad_triangle_lights_for_uniform(&mut storage, 0), 0);
-        assert_eq!(storage, lights);
+        let mut whole = vec![1u32; 8];
+        pad_triangle_lights(&mut whole);
+        assert_eq!(whole, vec![1u32; 8]);
+        let mut none = vec![];
+        pad_triangle_lights(&mut none);
+        assert_eq!(none, vec![layout::NO_LIGHT; 4]);
     }
 }

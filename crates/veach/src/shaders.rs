@@ -237,7 +237,7 @@ pub fn validate_wgsl(source: &str) -> Result<naga::Module, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::features::UniformArrays;
+    use crate::features::SceneArrayMemory;
     use crate::gpu::bvh_nodes::BVH_STACK_SIZE;
 
     #[test]
@@ -272,20 +272,8 @@ mod tests {
 
     #[test]
     fn all_wgsl_validates_with_naga() {
-        let small = UniformArrays {
-            bvh_nodes: 1024,
-            vertices: 4096,
-            triangles: 4096,
-            materials: 256,
-            lights: 512,
-            emitter_tris: 1024,
-            light_picks: 4096,
-            triangle_lights: 1024,
-            light_tree: 2048,
-            texel_arrays: false,
-        };
-        // A large scene on a CPU adapter: the materials uniform, every other array a texture.
-        let texels = UniformArrays { materials: 256, texel_arrays: true, ..UniformArrays::default() };
+        // A CPU adapter: the materials uniform, every other array a storage texture.
+        let texels = SceneArrayMemory { uniform_materials: 256, texels: true };
         // Two triangles with extreme corners: the largest f32, a subnormal, a negative zero.
         let vertices = [[f32::MAX, 0.0, -0.0], [1.0e-45, -1.0, 2.5], [0.1, -f32::MAX, 1.0]]
             .map(|p| crate::gpu::layout::Vertex { p, normal: 0 });
@@ -298,14 +286,14 @@ mod tests {
             leaf(4, [0.0; 3], [1.0; 3]),
         ];
         let baked = BakedTriangles::new(&vertices, &[t; 8], &nodes).unwrap();
-        for (textures, uniform, frame_copy, baked) in [
-            (false, UniformArrays::default(), false, None),
-            (true, UniformArrays::default(), false, None),
-            (false, small, true, None),
-            (false, small, true, Some(&baked)),
+        for (textures, arrays, frame_copy, baked) in [
+            (false, SceneArrayMemory::default(), false, None),
+            (true, SceneArrayMemory::default(), false, None),
+            (false, texels, true, None),
+            (false, texels, true, Some(&baked)),
             (true, texels, true, None),
         ] {
-            let declared = DeclaredBindings { uniform, frame_copy, ..DeclaredBindings::plain() };
+            let declared = DeclaredBindings { arrays, frame_copy, ..DeclaredBindings::plain() };
             let source = render_kernel_source(textures, &declared, baked, 0);
             if frame_copy {
                 assert!(source.contains("var<private> frame: FrameParams;") && source.contains("frame = frame_in;"));

@@ -1,12 +1,12 @@
 //! The bind group layout of the kernels, written out binding by binding as in
 //! `shaders/layout.wgsl` (group 0) and `shaders/test_kernels.wgsl` (bindings 20–22).
 
-use crate::features::UniformArrays;
+use crate::features::SceneArrayMemory;
 
 /// Binding of `frame` (FrameParams, read-only storage: see layout.wgsl for why not uniform).
 pub const FRAME: u32 = 0;
-/// Bindings 1..=7: the scene (bvh_nodes … light_picks), read-only storage (or uniform buffers
-/// where they fit: `ExtraBindings::uniform`), and TRIANGLE_LIGHTS.
+/// Bindings 1..=7: the scene (bvh_nodes … light_picks), read-only storage buffers or storage
+/// textures (`ExtraBindings::arrays`), and TRIANGLE_LIGHTS.
 pub const SCENE_FIRST: u32 = 1;
 pub const SCENE_COUNT: u32 = 7;
 /// Bindings 8..=12: accum, accum_sq, counters, aov_light, aov_brdf (read-write storage).
@@ -25,8 +25,8 @@ pub const DEFERRED_DISPATCH: u32 = 19;
 pub const TEST_PARAMS: u32 = 20;
 pub const TEST_INPUT: u32 = 21;
 pub const TEST_OUTPUT: u32 = 22;
-/// The scene's `triangle_lights` (read-only storage, or uniform: `UniformArrays::triangle_lights`),
-/// after the others.
+/// The scene's `triangle_lights` (as the arrays of bindings 1-7: `SceneArrayMemory`), after the
+/// others.
 pub const TRIANGLE_LIGHTS: u32 = 23;
 /// Baked megakernels with camera footprint lists (`KernelPlan::footprint_slots`): the lists
 /// (read-only storage).
@@ -34,11 +34,11 @@ pub const CAMERA_FOOTPRINTS: u32 = 24;
 /// BVH kernels with the emitters' grid (`KernelPlan::emitter_grid`, `gpu::emitter_grid`): the grid
 /// (read-only storage).
 pub const EMITTER_GRID: u32 = 25;
-/// The light tree (`crate::light_tree`; read-only storage, or uniform:
-/// `UniformArrays::light_tree`), in every kernel: SELECT_TREE is a setting of the frame, not of
+/// The light tree (`crate::light_tree`; as the arrays of bindings 1-7: `SceneArrayMemory`), in
+/// every kernel: SELECT_TREE is a setting of the frame, not of
 /// the kernel.
 pub const LIGHT_TREE: u32 = 26;
-/// Texels a row of a scene array's texture (`UniformArrays::texel_arrays`): element i's word w
+/// Texels a row of a scene array's texture (`SceneArrayMemory::texels`): element i's word w
 /// of an array of `words` 16-byte words an element is texel k = words * i + w, at
 /// (k % TEXEL_ROW, k / TEXEL_ROW).
 pub const TEXEL_ROW: u32 = 4096;
@@ -63,8 +63,8 @@ pub const SCENE_ARRAYS: [(&str, &str); SCENE_COUNT as usize] = [
 /// (the others are declared in the shader files themselves).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct DeclaredBindings {
-    /// Which scene arrays are uniform arrays, and of what length.
-    pub uniform: UniformArrays,
+    /// Where the scene arrays are read from.
+    pub arrays: SceneArrayMemory,
     /// Each entry point copies the frame's parameters into a private variable (`load_frame`).
     pub frame_copy: bool,
     /// The emitters' grid is bound and read (`emitter_grid_word`).
@@ -78,7 +78,7 @@ impl DeclaredBindings {
     /// generic kernel's declarations.
     pub fn plain() -> DeclaredBindings {
         DeclaredBindings {
-            uniform: UniformArrays::default(),
+            arrays: SceneArrayMemory::default(),
             frame_copy: false,
             emitter_grid: false,
             bvh_stack: crate::gpu::bvh_nodes::BVH_STACK_SIZE,
@@ -86,14 +86,12 @@ impl DeclaredBindings {
     }
 }
 
-/// A scene array read through a function: a uniform array of its structs where it fits, or else
-/// a texture or storage of 16-byte words, `words` of them an element, which `from_words` (over
-/// `w0`, `w1`, ...) makes into the struct.
+/// A scene array read through a function: a storage texture or storage buffer of 16-byte words,
+/// `words` of them an element, which `from_words` (over `w0`, `w1`, ...) makes into the struct.
 struct ArrayReader {
     binding: u32,
     name: &'static str,
     element: &'static str,
-    uniform_len: u32,
     reader: &'static str,
     words: u32,
     from_words: &'static str,
@@ -107,16 +105,14 @@ struct ArrayReader {
 ///   `load_frame` copies it into a private `frame` once per invocation, since Mesa 22.3 loads a
 ///   storage word lane by lane at every read (Cornell box 0.75x; docs/performance.md, "The frame's
 ///   parameters copied once per invocation").
-/// - the scene arrays (1..=7) are storage, or uniform arrays where they fit (lavapipe gathers
-///   those; "Small BVHs in a uniform buffer"), and `triangle_lights` (23), read by
-///   `triangle_light`, packs four triangles to a vec4u where uniform ("Triangle lights in a
-///   uniform array"); the light tree (26) is uniform where it fits too;
-/// - `bvh_node`, `vertex_at`, `triangle_at`, `light_record`, `emitter_tri_at`, `light_pick_at`
-///   and `light_tree_node` read an element: where their arrays are not uniform, on CPU adapters
-///   from an `rgba32uint` texture (`UniformArrays::texel_arrays`: Mesa 22.3 loads storage lane by
-///   lane, each word through the stack, and gathers texels; "Scene arrays in textures"), else
-///   from storage declared as `vec4u` words, 16 bytes a load ("Scene arrays in storage as vec4u
-///   loads");
+/// - the materials (4) are a uniform array where they fit on CPU adapters, else storage;
+/// - `bvh_node`, `vertex_at`, `triangle_at`, `light_record`, `emitter_tri_at`, `light_pick_at`,
+///   `light_tree_node` and `triangle_light` read an element of their arrays (bindings 1-7 but the
+///   materials, the light tree (26) and `triangle_lights` (23), four triangles' lights a word
+///   each to a texel): on CPU adapters from a read-only `rgba32uint` storage texture
+///   (`SceneArrayMemory::texels`: Mesa 22.3 loads storage lane by lane, each word through the
+///   stack, and gathers texels; "Scene arrays in storage textures"), else from storage declared
+///   as `vec4u` words, 16 bytes a load ("Scene arrays in storage as vec4u loads");
 /// - the emitters' grid (25) is read by `emitter_grid_word`, which returns 0 in kernels without
 ///   one (EMITTER_LIST is then false and it is never read);
 /// - `BVH_STACK_SIZE` sizes the traversal's stack.
@@ -137,32 +133,30 @@ pub fn wgsl_declarations(d: &DeclaredBindings) -> String {
     // The materials; the other scene arrays are declared below with their readers.
     let (name, element) = SCENE_ARRAYS[MATERIALS];
     let binding = SCENE_FIRST + MATERIALS as u32;
-    line(match d.uniform.materials {
+    line(match d.arrays.uniform_materials {
         0 => format!("@group(0) @binding({binding}) var<storage, read> {name}: array<{element}>;"),
         n => format!("@group(0) @binding({binding}) var<uniform> {name}: array<{element}, {n}>;"),
     });
+    // Word w of element i: texel (or vec4u) k = words * i + w.
+    let shift = TEXEL_ROW.trailing_zeros();
+    let mask = TEXEL_ROW - 1;
+    let (declaration, load) = if d.arrays.texels {
+        ("texture_storage_2d<rgba32uint, read>", format!("textureLoad(NAME, vec2u(K & {mask}u, K >> {shift}u))"))
+    } else {
+        ("array<vec4u>", "NAME[K]".to_string())
+    };
+    let declare = |binding: u32, name: &str| match d.arrays.texels {
+        true => format!("@group(0) @binding({binding}) var {name}: {declaration};"),
+        false => format!("@group(0) @binding({binding}) var<storage, read> {name}: {declaration};"),
+    };
+    let word = |name: &str, k: &str| load.replace("NAME", name).replace('K', k);
     let mut array_with_reader = |array: ArrayReader| {
-        let ArrayReader { binding, name, element, uniform_len, reader, words, from_words } = array;
-        if uniform_len == 0 && d.uniform.texel_arrays {
-            line(format!("@group(0) @binding({binding}) var {name}: texture_2d<u32>;"));
-            let shift = TEXEL_ROW.trailing_zeros();
-            let mask = TEXEL_ROW - 1;
-            let loads: String = (0..words)
-                .map(|w| {
-                    format!(
-                        "    let k{w} = {words}u * i + {w}u;\n    let w{w} = textureLoad({name}, vec2u(k{w} & {mask}u, k{w} >> {shift}u), 0);\n"
-                    )
-                })
-                .collect();
-            line(format!("fn {reader}(i: u32) -> {element} {{\n{loads}    return {from_words};\n}}"));
-        } else if uniform_len == 0 {
-            line(format!("@group(0) @binding({binding}) var<storage, read> {name}: array<vec4u>;"));
-            let loads: String = (0..words).map(|w| format!("    let w{w} = {name}[{words}u * i + {w}u];\n")).collect();
-            line(format!("fn {reader}(i: u32) -> {element} {{\n{loads}    return {from_words};\n}}"));
-        } else {
-            line(format!("@group(0) @binding({binding}) var<uniform> {name}: array<{element}, {uniform_len}>;"));
-            line(format!("fn {reader}(i: u32) -> {element} {{\n    return {name}[i];\n}}"));
-        }
+        let ArrayReader { binding, name, element, reader, words, from_words } = array;
+        line(declare(binding, name));
+        let loads: String = (0..words)
+            .map(|w| format!("    let k{w} = {words}u * i + {w}u;\n    let w{w} = {};\n", word(name, &format!("k{w}"))))
+            .collect();
+        line(format!("fn {reader}(i: u32) -> {element} {{\n{loads}    return {from_words};\n}}"));
     };
     // Bindings 1-7 but the materials: (reader, words an element, the element from its words).
     let readers = [
@@ -179,33 +173,28 @@ pub fn wgsl_declarations(d: &DeclaredBindings) -> String {
         ("emitter_tri_at", 1, "EmitterTriangle(bitcast<f32>(w0.x), w0.y, w0.z, w0.w)"),
         ("light_pick_at", 1, "LightPick(bitcast<f32>(w0.x), bitcast<f32>(w0.y), w0.z, w0.w)"),
     ];
-    for (k, ((reader, words, from_words), uniform_len)) in readers.into_iter().zip(d.uniform.lengths()).enumerate() {
+    for (k, (reader, words, from_words)) in readers.into_iter().enumerate() {
         if k == MATERIALS {
             continue;
         }
         let (name, element) = SCENE_ARRAYS[k];
         let binding = SCENE_FIRST + k as u32;
-        array_with_reader(ArrayReader { binding, name, element, uniform_len, reader, words, from_words });
+        array_with_reader(ArrayReader { binding, name, element, reader, words, from_words });
     }
     array_with_reader(ArrayReader {
         binding: LIGHT_TREE,
         name: "light_tree",
         element: "LightTreeNode",
-        uniform_len: d.uniform.light_tree,
         reader: "light_tree_node",
         words: 2,
         from_words: "LightTreeNode(bitcast<vec3f>(w0.xyz), bitcast<f32>(w0.w), bitcast<f32>(w1.x), w1.y, w1.z, w1.w)",
     });
-    match d.uniform.triangle_lights {
-        0 => {
-            line(format!("@group(0) @binding({TRIANGLE_LIGHTS}) var<storage, read> triangle_lights: array<u32>;"));
-            line("fn triangle_light(tri: u32) -> u32 {\n    return triangle_lights[tri];\n}".into());
-        }
-        n => {
-            line(format!("@group(0) @binding({TRIANGLE_LIGHTS}) var<uniform> triangle_lights: array<vec4u, {n}>;"));
-            line("fn triangle_light(tri: u32) -> u32 {\n    return triangle_lights[tri >> 2u][tri & 3u];\n}".into());
-        }
-    }
+    // Four triangles' lights to a word of four.
+    line(declare(TRIANGLE_LIGHTS, "triangle_lights"));
+    line(format!(
+        "fn triangle_light(tri: u32) -> u32 {{\n    let k = tri >> 2u;\n    return {}[tri & 3u];\n}}",
+        word("triangle_lights", "k")
+    ));
     if d.emitter_grid {
         line(format!("@group(0) @binding({EMITTER_GRID}) var<storage, read> emitter_grid: array<u32>;"));
         line("fn emitter_grid_word(i: u32) -> u32 {\n    return emitter_grid[i];\n}".into());
@@ -237,21 +226,21 @@ fn texels(binding: u32) -> wgpu::BindGroupLayoutEntry {
     wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::COMPUTE,
-        ty: wgpu::BindingType::Texture {
-            sample_type: wgpu::TextureSampleType::Uint,
+        ty: wgpu::BindingType::StorageTexture {
+            access: wgpu::StorageTextureAccess::ReadOnly,
+            format: wgpu::TextureFormat::Rgba32Uint,
             view_dimension: wgpu::TextureViewDimension::D2,
-            multisampled: false,
         },
         count: None,
     }
 }
 
 /// Which optional bindings a kernel's layout has besides the frame, scene and outputs, and
-/// whether the BVH is a uniform buffer.
+/// where the scene arrays are read from.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct ExtraBindings {
-    /// Which of the scene arrays (bindings 1-7) are uniform buffers.
-    pub uniform: UniformArrays,
+    /// Where the scene arrays are read from.
+    pub arrays: SceneArrayMemory,
     /// The texture module's bindings (13..=16).
     pub textures: bool,
     /// The wavefront kernels' deferred samples (17..=19).
@@ -267,7 +256,7 @@ pub struct ExtraBindings {
 /// Layout entries of a render or test kernel.
 pub fn layout_entries(extra: ExtraBindings) -> Vec<wgpu::BindGroupLayoutEntry> {
     let ExtraBindings {
-        uniform,
+        arrays,
         textures: with_textures,
         deferred: with_deferred,
         test_io: with_test_io,
@@ -275,27 +264,14 @@ pub fn layout_entries(extra: ExtraBindings) -> Vec<wgpu::BindGroupLayoutEntry> {
         emitter_grid,
     } = extra;
     let mut entries = vec![storage(FRAME, true)];
-    let uniform_lengths = uniform.lengths();
-    entries.extend((SCENE_FIRST..SCENE_FIRST + SCENE_COUNT).map(|b| {
-        let k = (b - SCENE_FIRST) as usize;
-        match uniform_lengths[k] {
-            0 if uniform.texel_arrays && k != MATERIALS => texels(b),
-            0 => storage(b, true),
-            _ => entry(b, wgpu::BufferBindingType::Uniform),
-        }
+    let array = |b: u32| if arrays.texels { texels(b) } else { storage(b, true) };
+    entries.extend((SCENE_FIRST..SCENE_FIRST + SCENE_COUNT).map(|b| match b - SCENE_FIRST {
+        k if k as usize == MATERIALS && arrays.uniform_materials > 0 => entry(b, wgpu::BufferBindingType::Uniform),
+        k if k as usize == MATERIALS => storage(b, true),
+        _ => array(b),
     }));
-    entries.push(if uniform.triangle_lights > 0 {
-        entry(TRIANGLE_LIGHTS, wgpu::BufferBindingType::Uniform)
-    } else {
-        storage(TRIANGLE_LIGHTS, true)
-    });
-    entries.push(if uniform.light_tree > 0 {
-        entry(LIGHT_TREE, wgpu::BufferBindingType::Uniform)
-    } else if uniform.texel_arrays {
-        texels(LIGHT_TREE)
-    } else {
-        storage(LIGHT_TREE, true)
-    });
+    entries.push(array(TRIANGLE_LIGHTS));
+    entries.push(array(LIGHT_TREE));
     entries.extend((OUTPUT_FIRST..OUTPUT_FIRST + OUTPUT_COUNT).map(|b| storage(b, false)));
     if with_textures {
         entries.extend((TEXTURES_FIRST..TEXTURES_FIRST + TEXTURES_COUNT).map(|b| storage(b, true)));

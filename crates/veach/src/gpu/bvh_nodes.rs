@@ -4,9 +4,8 @@
 //! a traversal step loads one node. The boxes are quantised to 8-bit cells of a per-node grid
 //! (Ylitie, Karras & Laine 2017, §3.1): a node is 64 bytes. `shaders/traverse_bvh.wgsl` reads it.
 
-use crate::bvh::{Bvh, BvhNode as HostNode, build_bvh, build_bvh_larger_leaves, half_area};
+use crate::bvh::{Bvh, BvhNode as HostNode, half_area};
 use crate::gpu::layout::BvhNode;
-use crate::scene::Triangle;
 
 /// A child reference (`BvhNode::children`): an inner node's index, or a leaf with this bit,
 /// its triangle count in bits 27-30 and its first triangle in bits 0-26.
@@ -81,24 +80,6 @@ fn collapse(nodes: &[HostNode]) -> Vec<(usize, WideChildren)> {
 /// boxes.
 pub fn gpu_node_count(bvh: &Bvh) -> usize {
     wide_node_count(&bvh.nodes)
-}
-
-/// A BVH of at most `max_nodes` GPU nodes (`gpu_node_count`) where larger leaves make one: the
-/// tree of `build_bvh`, or failing that obvhs's own medium preset (leaves collapsed at a node cost
-/// of 3 triangle tests), or, if that does not fit either, the first. On lavapipe a BVH in a uniform
-/// buffer (at most 64 KiB) renders faster even with the larger leaves it may need (docs/performance.md,
-/// "Small BVHs in a uniform buffer").
-pub fn build_bvh_fitting(triangles: &[Triangle], max_nodes: usize) -> Bvh {
-    let bvh = build_bvh(triangles);
-    // Larger leaves take about a third of the nodes away, never half: a tree over twice the
-    // budget is not built a second time (a million triangles' would double the build time).
-    let nodes = gpu_node_count(&bvh);
-    if nodes <= max_nodes || nodes > 2 * max_nodes {
-        return bvh;
-    }
-    let mut larger_leaves = build_bvh_larger_leaves(triangles);
-    larger_leaves.build_time += bvh.build_time;
-    if gpu_node_count(&larger_leaves) <= max_nodes { larger_leaves } else { bvh }
 }
 
 /// How many nodes the kernels read for this BVH2 (`encode_bvh_nodes`'s length): one for each
@@ -349,24 +330,9 @@ fn light_tag(node: &BvhNode, i: usize) -> u32 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::bvh::build_bvh;
+    use crate::scene::Triangle;
     use glam::Vec3;
-
-    #[test]
-    fn a_bvh_fits_a_node_budget_with_larger_leaves_where_it_can() {
-        let tris: Vec<Triangle> = (0..900)
-            .map(|i| {
-                let o = Vec3::new((i % 30) as f32, (i / 30) as f32, ((i % 30) * (i / 30) % 7) as f32 * 0.1);
-                Triangle { p: [o, o + Vec3::X, o + Vec3::Y], n: [Vec3::Z; 3], uv: Default::default(), material: 0 }
-            })
-            .collect();
-        let full = gpu_node_count(&build_bvh(&tris));
-        assert_eq!(gpu_node_count(&build_bvh_fitting(&tris, full)), full);
-        let fitted = build_bvh_fitting(&tris, full - 1);
-        assert!(gpu_node_count(&fitted) < full, "no smaller tree than {full} nodes");
-        assert_eq!(fitted.order.len(), tris.len());
-        // Far over the budget: the first build comes back, without a second.
-        assert_eq!(gpu_node_count(&build_bvh_fitting(&tris, full / 3)), full);
-    }
 
     #[test]
     fn every_wide_node_holds_its_childrens_boxes_references_and_tags() {

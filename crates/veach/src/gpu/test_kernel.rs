@@ -72,7 +72,7 @@ impl<'a> TestKernel<'a> {
             source,
             &[shaders::TEST_ENTRY_POINT],
             bindings::ExtraBindings {
-                uniform: Default::default(),
+                arrays: Default::default(),
                 textures: true,
                 deferred: false,
                 test_io: true,
