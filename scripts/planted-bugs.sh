@@ -68,7 +68,7 @@ bugs=(
   "crates/veach/src/gpu/bvh_nodes.rs|children.slots[slot + 1] = first + 1;|children.slots[slot + 1] = first;|specialise|triangles_compiled|4-wide BVH: a collapsed node's second child lost"
   "crates/veach/src/gpu/bvh_nodes.rs|while q < 255 && grid_bound(origin, cell, q + 1) <= low {|while q < 255 && grid_bound(origin, cell, q) <= low {|specialise|triangles_compiled|quantised BVH: low bounds rounded one cell inwards"
   "crates/veach/src/gpu/baked_triangles.rs|kept.iter().map(|kept.iter().skip(1).map(|specialise|compiled_into|baked triangles: each group's first left out of the kernel"
-  "crates/veach/src/gpu/bindings.rs|return {}[tri & 3u];|return {}[tri & 1u];|specialise|triangles_compiled|triangle lights four to a word: a wrong word of the four"
+  "crates/veach/src/gpu/bindings.rs|return {}[tri & 3u];|return {}[tri & 1u];|analytic|area_and_point_light|triangle lights four to a word: a wrong word of the four"
   "crates/veach/src/gpu/bindings.rs|let mask = TEXEL_ROW - 1;|let mask = TEXEL_ROW / 2 - 1;|specialise|scene_arrays|scene arrays in textures: a texel's column wrapped at half the row"
   "crates/veach/src/render.rs|baked.mark_blockers(&arrays.triangle_lights, (!directional).then_some(&delta[..]));|let _ = directional; baked.mark_blockers(&arrays.triangle_lights, Some(&delta[..]));|specialise|wall_at_the_edge|baked shadow rays: a wall left out though a directional light shines across it"
   "crates/veach/src/gpu/baked_triangles.rs|\"hi\", &wgsl_vec3(hi));|\"hi\", &wgsl_vec3(lo));|specialise|triangles_compiled|baked triangles behind boxes: the box collapsed to its lower corner"
