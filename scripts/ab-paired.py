@@ -22,7 +22,6 @@ heuristic, lights by power, emitters hidden, 16 spp); options after `--` replace
 """
 import argparse
 import json
-import math
 import random
 import statistics
 import subprocess
@@ -67,9 +66,9 @@ def main():
         sys.exit(f"no .gltf in {scene}")
     results = [time_scene(args, s, options, rng) for s in scenes]
     if len(results) > 1:
-        geomean = lambda xs: math.exp(sum(math.log(x) for x in xs) / len(xs))
-        print(f"geometric mean over {len(results)} scenes: paired medians {geomean([r[0] for r in results]):.3f}, "
-              f"fastest/fastest {geomean([r[1] for r in results]):.3f}")
+        geomean = statistics.geometric_mean
+        print(f"geometric mean over {len(results)} scenes: paired medians {geomean(r[0] for r in results):.3f}, "
+              f"fastest/fastest {geomean(r[1] for r in results):.3f}")
         differ = [s.stem for s, r in zip(scenes, results) if not r[2]]
         print("images differ: " + (", ".join(differ) if differ else "none"))
 

@@ -20,8 +20,8 @@ SWITCHES = {
                  f"if cpu_arrays && {OFF('NO_BAKED')} {{ BakedTriangles::new("),
     # Storage textures, the uniform materials and baked triangles: every array in storage buffers.
     "NO_CPU_ARRAYS": ("crates/veach/src/render.rs",
-                      "|| !cpu {",
-                      f"|| !cpu || !{OFF('NO_CPU_ARRAYS')} {{"),
+                      "self.gpu.is_cpu() && !matches!(memory,",
+                      f"{OFF('NO_CPU_ARRAYS')} && self.gpu.is_cpu() && !matches!(memory,"),
     "NO_FRAME_COPY": ("crates/veach/src/kernel_plan.rs", "d.frame_copy = adapter.cpu;",
                       f"d.frame_copy = {OFF('NO_FRAME_COPY')} && adapter.cpu;"),
     "NO_STRAIGHT_LINE": ("crates/veach/src/kernel_plan.rs", "straight_line_sample: !wavefront &&",

@@ -174,6 +174,10 @@ fn scene_buffer<T: bytemuck::Pod + Default>(
     })
 }
 
+/// `GpuScene::texel_views`' entries after the arrays of bindings 1-7.
+const LIGHT_TREE_TEXELS: usize = 7;
+const TRIANGLE_LIGHT_TEXELS: usize = 8;
+
 /// Rows of TEXEL_ROW 16-byte texels that `bytes` take (at least one).
 fn texel_rows(bytes: usize) -> u32 {
     (bytes.div_ceil(16).div_ceil(bindings::TEXEL_ROW as usize)).max(1) as u32
@@ -318,11 +322,16 @@ impl Renderer {
         self.upload_scene_with(scene, BvhMemory::Auto)
     }
 
+    /// Whether the scene's arrays are storage textures (and a small scene's triangles compiled
+    /// into the kernel): on a CPU adapter, unless `memory` asks for storage buffers.
+    fn cpu_arrays(&self, memory: BvhMemory) -> bool {
+        self.gpu.is_cpu() && !matches!(memory, BvhMemory::Storage | BvhMemory::StorageWithEmitterGrid)
+    }
+
     /// Elements of type T a uniform buffer may hold on this adapter, 0 where the arrays stay in
-    /// storage buffers (a GPU, or `BvhMemory::Storage`).
+    /// storage buffers (`cpu_arrays`).
     fn uniform_capacity<T>(&self, memory: BvhMemory) -> usize {
-        let cpu = self.gpu.is_cpu();
-        if matches!(memory, BvhMemory::Storage | BvhMemory::StorageWithEmitterGrid) || !cpu {
+        if !self.cpu_arrays(memory) {
             return 0;
         }
         let bytes = self.gpu.device.limits().max_uniform_buffer_binding_size.min(UNIFORM_ARRAY_MAX_BYTES);
@@ -338,8 +347,7 @@ impl Renderer {
                 scene.triangles.len()
             )));
         }
-        // A CPU adapter, and the arrays not forced into storage: storage textures.
-        let cpu_arrays = self.uniform_capacity::<u32>(memory) > 0;
+        let cpu_arrays = self.cpu_arrays(memory);
         let bvh = build_bvh(&scene.triangles);
         let mut stats = SceneUploadStats {
             bvh_build: bvh.build_time,
@@ -530,14 +538,14 @@ impl Renderer {
         }
         entries.push(wgpu::BindGroupEntry {
             binding: bindings::TRIANGLE_LIGHTS,
-            resource: match texels(8) {
+            resource: match texels(TRIANGLE_LIGHT_TEXELS) {
                 Some(view) => wgpu::BindingResource::TextureView(view),
                 None => triangle_lights.as_entire_binding(),
             },
         });
         entries.push(wgpu::BindGroupEntry {
             binding: bindings::LIGHT_TREE,
-            resource: match texels(7) {
+            resource: match texels(LIGHT_TREE_TEXELS) {
                 Some(view) => wgpu::BindingResource::TextureView(view),
                 None => scene.light_tree.as_entire_binding(),
             },

@@ -35,8 +35,7 @@ pub const CAMERA_FOOTPRINTS: u32 = 24;
 /// (read-only storage).
 pub const EMITTER_GRID: u32 = 25;
 /// The light tree (`crate::light_tree`; as the arrays of bindings 1-7: `SceneArrayMemory`), in
-/// every kernel: SELECT_TREE is a setting of the frame, not of
-/// the kernel.
+/// every kernel: SELECT_TREE is a setting of the frame, not of the kernel.
 pub const LIGHT_TREE: u32 = 26;
 /// Texels a row of a scene array's texture (`SceneArrayMemory::texels`): element i's word w
 /// of an array of `words` 16-byte words an element is texel k = words * i + w, at
@@ -140,16 +139,14 @@ pub fn wgsl_declarations(d: &DeclaredBindings) -> String {
     // Word w of element i: texel (or vec4u) k = words * i + w.
     let shift = TEXEL_ROW.trailing_zeros();
     let mask = TEXEL_ROW - 1;
-    let (declaration, load) = if d.arrays.texels {
-        ("texture_storage_2d<rgba32uint, read>", format!("textureLoad(NAME, vec2u(K & {mask}u, K >> {shift}u))"))
-    } else {
-        ("array<vec4u>", "NAME[K]".to_string())
-    };
     let declare = |binding: u32, name: &str| match d.arrays.texels {
-        true => format!("@group(0) @binding({binding}) var {name}: {declaration};"),
-        false => format!("@group(0) @binding({binding}) var<storage, read> {name}: {declaration};"),
+        true => format!("@group(0) @binding({binding}) var {name}: texture_storage_2d<rgba32uint, read>;"),
+        false => format!("@group(0) @binding({binding}) var<storage, read> {name}: array<vec4u>;"),
     };
-    let word = |name: &str, k: &str| load.replace("NAME", name).replace('K', k);
+    let word = |name: &str, k: &str| match d.arrays.texels {
+        true => format!("textureLoad({name}, vec2u({k} & {mask}u, {k} >> {shift}u))"),
+        false => format!("{name}[{k}]"),
+    };
     let mut array_with_reader = |array: ArrayReader| {
         let ArrayReader { binding, name, element, reader, words, from_words } = array;
         line(declare(binding, name));
