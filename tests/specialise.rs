@@ -41,10 +41,11 @@ fn scenes() -> [(&'static str, veach::Scene); 4] {
 
 /// The specialised kernels only drop code behind constant-false conditions (features the scene
 /// lacks, other strategies, contribution images not asked for) and draw the same random numbers,
-/// so their images are identical, bit for bit, to the generic kernel's. On a CPU adapter they
-/// also read these small scenes' BVHs from a uniform buffer, the generic kernel from storage, and
-/// the scenes of at most `BAKED_TRIANGLES_MAX` triangles (all but the Veach scene) have their
-/// triangles compiled into the kernel (shaders/traverse_baked.wgsl), the generic kernel a BVH.
+/// so their images are identical, bit for bit, to the generic kernel's. Both read the scene's
+/// arrays where its upload put them (storage textures on a CPU adapter; against storage buffers:
+/// `scene_arrays_render_alike_from_textures_and_from_storage`), and on a CPU adapter the scenes of
+/// at most `BAKED_TRIANGLES_MAX` triangles (all but the Veach scene) have their triangles compiled
+/// into the specialised kernel (shaders/traverse_baked.wgsl), the generic kernel a BVH.
 #[test]
 fn specialised_kernels_render_the_generic_kernels_image() {
     let cpu = renderer().gpu.adapter_info.device_type == wgpu::DeviceType::Cpu;
@@ -82,9 +83,12 @@ fn specialised_kernels_render_the_generic_kernels_image() {
                 let generic = render(&gpu_scene, &RenderSettings { specialise: false, ..settings.clone() }, &camera);
                 assert_ne!(special.kernel, KernelPlan::generic());
                 straight_line += special.kernel.driver.straight_line_sample as usize;
-                // The workgroup is the driver's (GpuContext::render_workgroup), not a specialisation.
+                // The workgroup is the driver's (GpuContext::render_workgroup), and the array
+                // memory the scene's: neither is a specialisation.
                 let workgroup = renderer().gpu.render_workgroup(false);
-                let driver = veach::kernel_plan::DriverTuning { workgroup, ..veach::kernel_plan::DriverTuning::none() };
+                let arrays = special.kernel.driver.arrays;
+                let driver =
+                    veach::kernel_plan::DriverTuning { workgroup, arrays, ..veach::kernel_plan::DriverTuning::none() };
                 assert_eq!(generic.kernel, KernelPlan { driver, ..KernelPlan::generic() });
                 if strategy == Strategy::Mis {
                     let k = &special.kernel;
@@ -94,7 +98,6 @@ fn specialised_kernels_render_the_generic_kernels_image() {
                         "{name}"
                     );
                 }
-                let arrays = special.kernel.driver.arrays;
                 assert_eq!(arrays.texels, cpu, "{name}: scene memory {arrays:?}");
                 let baked = special.kernel.driver.baked.as_ref().map(|b| b.len());
                 let small = scene.triangles.len() <= BAKED_TRIANGLES_MAX;

@@ -96,7 +96,7 @@ pub struct SampleShape {
 /// What a kernel does for the driver's sake: each changes the render time, none the samples
 /// (deferred rays sum them in another order). Chosen by the adapter's profile
 /// (`AdapterProfile`) and what the scene's upload chose for it; none in the generic kernel but
-/// the workgroup.
+/// the workgroup and where the arrays are.
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct DriverTuning {
     /// Where the scene arrays are read from (`GpuScene` decides: storage textures on CPU
@@ -234,8 +234,11 @@ impl KernelPlan {
         } else {
             KernelPlan { wavefront: settings.execution == Execution::Wavefront, ..KernelPlan::generic() }
         };
-        // Every kernel, generic or not, takes the stack its scene's BVH needs.
+        // Every kernel, generic or not, takes the stack its scene's BVH needs and reads the
+        // scene's arrays where its upload put them (`Renderer::upload_scene`: once, as storage
+        // textures on CPU adapters).
         plan.bvh_stack = scene.bvh_stack;
+        plan.driver.arrays = scene.arrays;
         if settings.specialise {
             plan.lights.lit_boxes = scene.lit_boxes && plan.light_selection == Some(LightSelection::Tree);
         }
@@ -304,8 +307,6 @@ impl KernelPlan {
     /// triangles, the emitters' grid) and where the camera is.
     fn driver_tuning(&mut self, scene: UploadedScene, camera: &Camera, adapter: &AdapterProfile) {
         let d = &mut self.driver;
-        // The scene's arrays are where its upload put them (`upload_scene`).
-        d.arrays = scene.arrays;
         d.frame_copy = adapter.cpu;
         d.baked = scene.baked.cloned();
         // A BVH kernel's direction samples search the emitters' grid where the scene has one
@@ -724,12 +725,12 @@ mod tests {
             (nvidia.strategy, nvidia.lights, nvidia.techniques),
             (lavapipe.strategy, lavapipe.lights, lavapipe.techniques)
         );
-        // The generic kernel: no tuning but the workgroup, the scene's stack.
+        // The generic kernel: no tuning but the workgroup, the scene's stack and array memory.
         let generic = plan(
             &RenderSettings { specialise: false, ..mis.clone() },
             &profile(AutoExecution::MegakernelOnLavapipe, true),
         );
-        let driver = DriverTuning { workgroup: (8, 8), ..DriverTuning::none() };
+        let driver = DriverTuning { workgroup: (8, 8), arrays, ..DriverTuning::none() };
         assert_eq!(generic, KernelPlan { bvh_stack: 160, driver, ..KernelPlan::generic() });
         // The same inputs, the same plan.
         assert_eq!(plan(&mis, &profile(AutoExecution::MegakernelOnLavapipe, true)), lavapipe);

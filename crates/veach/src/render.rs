@@ -17,6 +17,7 @@ use crate::scene::light_shape::rectangle_lights_seen_wide;
 use crate::scene::{Camera, LightKind, Scene};
 use crate::settings::{Heuristic, LightSampling, RenderSettings, Sampler, Strategy};
 use crate::shaders;
+use std::borrow::Cow;
 use std::collections::HashMap;
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
@@ -38,13 +39,12 @@ pub struct SceneUploadStats {
 /// A scene on the GPU: its BVH, triangles, materials and lights, ready to render with any
 /// settings and camera.
 pub struct GpuScene {
-    /// bvh_nodes … light_picks (bindings 1-7), then triangle_lights.
-    pub(crate) buffers: Vec<wgpu::Buffer>,
     /// Where its kernels read the arrays from (see `BvhMemory`).
     pub(crate) arrays: SceneArrayMemory,
-    /// Storage texture copies of the scene arrays of bindings 1-7 (but the materials: `None`),
-    /// then of the light tree and `triangle_lights`, where `arrays.texels`.
-    pub(crate) texel_views: [Option<wgpu::TextureView>; 9],
+    /// bvh_nodes … light_picks (bindings 1-7), then the light tree and triangle_lights, each
+    /// once: in a storage texture where `arrays.texels` (the materials excepted), else in a
+    /// storage buffer.
+    pub(crate) array_bindings: [SceneArray; 9],
     /// The triangles compiled into the kernel instead of a BVH, for small scenes on CPU adapters
     /// (`BvhMemory::Auto`).
     pub(crate) baked: Option<Arc<BakedTriangles>>,
@@ -60,9 +60,8 @@ pub struct GpuScene {
     /// The emitters' grid, for BVH kernels where the driver branches around code no lane runs and
     /// the grid pays (`gpu::emitter_grid`; `KernelPlan::emitter_grid`).
     pub(crate) emitter_grid: Option<wgpu::Buffer>,
-    /// The light tree's nodes and directional leaves (`crate::light_tree`; one zeroed node where
-    /// there is no light), and their counts.
-    pub(crate) light_tree: wgpu::Buffer,
+    /// The light tree's counts of nodes and directional leaves (`crate::light_tree`; its array
+    /// holds one zeroed node where there is no light).
     pub(crate) light_tree_nodes: u32,
     pub(crate) directional_lights: u32,
     /// Lights with a lit box (`LightTree::sealed_lights`): where any has one, the tree's array
@@ -134,7 +133,7 @@ impl GpuScene {
 /// `RenderOutput::kernel_creation`, outside the render time.
 pub(crate) struct Kernel {
     pub(crate) textures: bool,
-    /// It reads the scene's arrays from its storage textures (`GpuScene::texel_views`).
+    /// It reads the scene's arrays from storage textures (`SceneArray::Texels`).
     pub(crate) texel_arrays: bool,
     /// It reads the emitters' grid (`KernelPlan::emitter_grid`).
     pub(crate) emitter_grid: bool,
@@ -174,9 +173,43 @@ fn scene_buffer<T: bytemuck::Pod + Default>(
     })
 }
 
-/// `GpuScene::texel_views`' entries after the arrays of bindings 1-7.
-const LIGHT_TREE_TEXELS: usize = 7;
-const TRIANGLE_LIGHT_TEXELS: usize = 8;
+/// An array's bytes, or one zeroed element's where it is empty (bindings may not be empty).
+fn array_bytes<T: bytemuck::Pod + Default>(data: &[T]) -> Cow<'_, [u8]> {
+    match data.is_empty() {
+        true => Cow::Owned(bytemuck::bytes_of(&T::default()).to_vec()),
+        false => Cow::Borrowed(bytemuck::cast_slice(data)),
+    }
+}
+
+/// One scene array as the kernels bind it.
+pub(crate) enum SceneArray {
+    Buffer(wgpu::Buffer),
+    /// On CPU adapters (`SceneArrayMemory::texels`): the array's 16-byte words as texels.
+    Texels {
+        view: wgpu::TextureView,
+        bytes: u64,
+    },
+}
+
+impl SceneArray {
+    fn resource(&self) -> wgpu::BindingResource<'_> {
+        match self {
+            SceneArray::Buffer(b) => b.as_entire_binding(),
+            SceneArray::Texels { view, .. } => wgpu::BindingResource::TextureView(view),
+        }
+    }
+
+    fn bytes(&self) -> u64 {
+        match self {
+            SceneArray::Buffer(b) => b.size(),
+            SceneArray::Texels { bytes, .. } => *bytes,
+        }
+    }
+}
+
+/// `GpuScene::array_bindings`' entries after the arrays of bindings 1-7.
+const LIGHT_TREE_ARRAY: usize = 7;
+const TRIANGLE_LIGHTS_ARRAY: usize = 8;
 
 /// Rows of TEXEL_ROW 16-byte texels that `bytes` take (at least one).
 fn texel_rows(bytes: usize) -> u32 {
@@ -405,42 +438,31 @@ impl Renderer {
         let uniform_materials =
             pad_for_uniform(&mut arrays.materials, self.uniform_capacity::<layout::Material>(memory));
         let device = &self.gpu.device;
-        // On CPU adapters, the arrays read through a reader function are read from storage
-        // textures, if every one fits a texture. In binding order (bindings 1-7, then the light
-        // tree and triangle_lights): label, words.
-        let texel_sources: [(&str, &[u8]); 9] = [
-            ("bvh_nodes texels", bytemuck::cast_slice(&arrays.bvh_nodes)),
-            ("vertices texels", bytemuck::cast_slice(&arrays.vertices)),
-            ("triangles texels", bytemuck::cast_slice(&arrays.triangles)),
-            ("materials", &[]), // never a texture (bindings::MATERIALS)
-            ("lights texels", bytemuck::cast_slice(&arrays.lights)),
-            ("emitter_tris texels", bytemuck::cast_slice(&arrays.emitter_tris)),
-            ("light_picks texels", bytemuck::cast_slice(&arrays.light_picks)),
-            ("light tree texels", bytemuck::cast_slice(&arrays.light_tree.nodes)),
-            ("triangle_lights texels", bytemuck::cast_slice(&arrays.triangle_lights)),
+        // The scene arrays in binding order (bindings 1-7, then the light tree and
+        // triangle_lights): label, words. Each is uploaded once: on CPU adapters as a storage
+        // texture if every one fits a texture (the materials excepted: bindings::MATERIALS),
+        // else as a storage buffer.
+        let sources: [(&str, Cow<[u8]>); 9] = [
+            ("bvh_nodes", array_bytes(&arrays.bvh_nodes)),
+            ("vertices", array_bytes(&arrays.vertices)),
+            ("triangles", array_bytes(&arrays.triangles)),
+            ("materials", array_bytes(&arrays.materials)),
+            ("lights", array_bytes(&arrays.lights)),
+            ("emitter_tris", array_bytes(&arrays.emitter_tris)),
+            ("light_picks", array_bytes(&arrays.light_picks)),
+            ("light tree", array_bytes(&arrays.light_tree.nodes)),
+            ("triangle_lights", array_bytes(&arrays.triangle_lights)),
         ];
         let max_rows = device.limits().max_texture_dimension_2d;
-        let texels = cpu_arrays && texel_sources.iter().all(|&(_, bytes)| texel_rows(bytes.len()) <= max_rows);
+        let texels = cpu_arrays && sources.iter().all(|(_, bytes)| texel_rows(bytes.len()) <= max_rows);
         let scene_arrays = SceneArrayMemory { uniform_materials, texels };
-        let texel_views = std::array::from_fn(|k| {
-            let (label, bytes) = texel_sources[k];
-            (texels && k != bindings::MATERIALS).then(|| texel_array(device, &self.gpu.queue, label, bytes))
-        });
-        let texel_bytes: u64 = texel_sources
-            .iter()
-            .zip(&texel_views)
-            .filter(|(_, view)| view.is_some())
-            .map(|((_, bytes), _)| texel_rows(bytes.len()) as u64 * bindings::TEXEL_ROW as u64 * 16)
-            .sum();
         let max_binding = device.limits().max_storage_buffer_binding_size;
-        let too_big = [
-            std::mem::size_of_val(arrays.bvh_nodes.as_slice()),
-            std::mem::size_of_val(arrays.vertices.as_slice()),
-            std::mem::size_of_val(arrays.triangles.as_slice()),
-            std::mem::size_of_val(arrays.emitter_tris.as_slice()),
-        ]
-        .into_iter()
-        .find(|&b| b as u64 > max_binding);
+        let too_big = sources
+            .iter()
+            .enumerate()
+            .filter(|&(k, _)| !texels || k == bindings::MATERIALS)
+            .map(|(_, (_, bytes))| bytes.len())
+            .find(|&b| b as u64 > max_binding);
         if let Some(bytes) = too_big {
             return Err(Error::Gpu(format!(
                 "the scene needs a {} MiB buffer but the adapter allows {} MiB per binding",
@@ -460,18 +482,23 @@ impl Renderer {
                 )));
             }
         }
-        let none = wgpu::BufferUsages::empty();
-        let materials_usage = if uniform_materials > 0 { wgpu::BufferUsages::UNIFORM } else { none };
-        let buffers = vec![
-            scene_buffer(device, "bvh_nodes", &arrays.bvh_nodes, none),
-            scene_buffer(device, "vertices", &arrays.vertices, none),
-            scene_buffer(device, "triangles", &arrays.triangles, none),
-            scene_buffer(device, "materials", &arrays.materials, materials_usage),
-            scene_buffer(device, "lights", &arrays.lights, none),
-            scene_buffer(device, "emitter_tris", &arrays.emitter_tris, none),
-            scene_buffer(device, "light_picks", &arrays.light_picks, none),
-            scene_buffer(device, "triangle_lights", &arrays.triangle_lights, none),
-        ];
+        let materials_usage =
+            if uniform_materials > 0 { wgpu::BufferUsages::UNIFORM } else { wgpu::BufferUsages::empty() };
+        let array_bindings = std::array::from_fn(|k| {
+            let (label, bytes) = &sources[k];
+            if texels && k != bindings::MATERIALS {
+                let view = texel_array(device, &self.gpu.queue, label, bytes);
+                let bytes = texel_rows(bytes.len()) as u64 * bindings::TEXEL_ROW as u64 * 16;
+                SceneArray::Texels { view, bytes }
+            } else {
+                let usage = if k == bindings::MATERIALS { materials_usage } else { wgpu::BufferUsages::empty() };
+                SceneArray::Buffer(device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+                    label: Some(*label),
+                    contents: &bytes[..],
+                    usage: wgpu::BufferUsages::STORAGE | usage,
+                }))
+            }
+        });
         // Scenes without textures upload none: their kernels do not bind any.
         let texture_buffers = arrays.textures.as_ref().map(|t| {
             [
@@ -483,24 +510,15 @@ impl Renderer {
         let emitter_grid = emitter_grid
             .filter(|g| (g.words.len() as u64 * 4) <= max_binding)
             .map(|g| storage_buffer(device, "emitter grid", &g.words));
-        let light_tree = scene_buffer(device, "light tree", &arrays.light_tree.nodes, none);
-        stats.gpu_scene_bytes = buffers
-            .iter()
-            .chain(texture_buffers.iter().flatten())
-            .chain(emitter_grid.iter())
-            .chain([&light_tree])
-            .map(|b| b.size())
-            .sum::<u64>()
-            + texel_bytes;
+        stats.gpu_scene_bytes = array_bindings.iter().map(SceneArray::bytes).sum::<u64>()
+            + texture_buffers.iter().flatten().chain(emitter_grid.iter()).map(|b| b.size()).sum::<u64>();
         stats.upload = upload_start.elapsed();
         Ok(GpuScene {
-            buffers,
             arrays: scene_arrays,
-            texel_views,
+            array_bindings,
             baked,
             texture_buffers,
             light_count: scene.lights.len() as u32,
-            light_tree,
             light_tree_nodes: arrays.light_tree.tree_nodes,
             directional_lights: arrays.light_tree.directional,
             sealed_lights: arrays.light_tree.sealed_lights,
@@ -526,29 +544,21 @@ impl Renderer {
     ) -> wgpu::BindGroup {
         let layout = &kernel.layout;
         let mut entries = vec![wgpu::BindGroupEntry { binding: bindings::FRAME, resource: frame.as_entire_binding() }];
-        let (triangle_lights, scene_arrays) = scene.buffers.split_last().expect("scene buffers");
-        // A kernel reading texel arrays binds the scene's textures where it has them.
-        let texels = |k: usize| scene.texel_views[k].as_ref().filter(|_| kernel.texel_arrays);
-        for (i, b) in scene_arrays.iter().enumerate() {
-            let resource = match texels(i) {
-                Some(view) => wgpu::BindingResource::TextureView(view),
-                None => b.as_entire_binding(),
-            };
-            entries.push(wgpu::BindGroupEntry { binding: bindings::SCENE_FIRST + i as u32, resource });
+        // Every kernel is planned for where its scene's arrays are (`KernelPlan::for_render`,
+        // `TestKernel::run`).
+        assert_eq!(kernel.texel_arrays, scene.arrays.texels, "a kernel bound to a scene whose arrays it does not read");
+        let arrays = &scene.array_bindings;
+        for (i, array) in arrays[..bindings::SCENE_COUNT as usize].iter().enumerate() {
+            entries
+                .push(wgpu::BindGroupEntry { binding: bindings::SCENE_FIRST + i as u32, resource: array.resource() });
         }
         entries.push(wgpu::BindGroupEntry {
-            binding: bindings::TRIANGLE_LIGHTS,
-            resource: match texels(TRIANGLE_LIGHT_TEXELS) {
-                Some(view) => wgpu::BindingResource::TextureView(view),
-                None => triangle_lights.as_entire_binding(),
-            },
+            binding: bindings::LIGHT_TREE,
+            resource: arrays[LIGHT_TREE_ARRAY].resource(),
         });
         entries.push(wgpu::BindGroupEntry {
-            binding: bindings::LIGHT_TREE,
-            resource: match texels(LIGHT_TREE_TEXELS) {
-                Some(view) => wgpu::BindingResource::TextureView(view),
-                None => scene.light_tree.as_entire_binding(),
-            },
+            binding: bindings::TRIANGLE_LIGHTS,
+            resource: arrays[TRIANGLE_LIGHTS_ARRAY].resource(),
         });
         for (i, b) in outputs.iter().enumerate() {
             entries.push(wgpu::BindGroupEntry {

@@ -5,9 +5,12 @@ use super::bindings::{self, DeclaredBindings};
 use super::bvh_nodes::BVH_STACK_SIZE;
 use super::layout::{FrameParams, TestParams};
 use crate::error::{Error, Result};
+use crate::features::SceneArrayMemory;
+use crate::gpu::baked_triangles::BakedTriangles;
 use crate::gpu::readback::read_buffer;
 use crate::render::{GpuScene, Kernel, Renderer};
 use crate::shaders;
+use std::sync::{Arc, Mutex};
 use wgpu::util::DeviceExt;
 
 /// Routine codes of `test_kernels.wgsl`.
@@ -33,9 +36,15 @@ pub mod routine {
     pub const TRACE_CAMERA: u32 = 41;
 }
 
+/// The test kernels. They bind a scene's arrays as its render kernels do, so each is compiled
+/// for where the arrays of the scenes it runs on are (`SceneArrayMemory`), at its first run on
+/// one.
 pub struct TestKernel<'a> {
     renderer: &'a Renderer,
-    kernel: Kernel,
+    /// Triangles compiled in instead of the BVH (`for_baked_scene`).
+    baked: Option<Arc<BakedTriangles>>,
+    bvh_stack: u32,
+    kernels: Mutex<Vec<(SceneArrayMemory, Arc<Kernel>)>>,
 }
 
 const WORKGROUP: u32 = 64;
@@ -43,36 +52,35 @@ const WORKGROUP: u32 = 64;
 impl<'a> TestKernel<'a> {
     /// The test kernels with the traversal stack of most scenes (`BVH_STACK_SIZE`).
     pub fn new(renderer: &'a Renderer) -> Result<Self> {
-        Self::with_stack(renderer, BVH_STACK_SIZE)
+        Ok(TestKernel { renderer, baked: None, bvh_stack: BVH_STACK_SIZE, kernels: Mutex::default() })
     }
 
     /// The test kernels with the traversal stack `scene`'s BVH needs.
     pub fn for_scene(renderer: &'a Renderer, scene: &GpuScene) -> Result<Self> {
-        Self::with_stack(renderer, scene.bvh_stack())
+        Ok(TestKernel { bvh_stack: scene.bvh_stack(), ..Self::new(renderer)? })
     }
 
     /// The test kernels over `scene`'s triangles compiled in (traverse_baked.wgsl), camera list
     /// included where the scene has one; an error for a scene that traverses a BVH.
     pub fn for_baked_scene(renderer: &'a Renderer, scene: &GpuScene) -> Result<Self> {
-        let baked = scene.baked.as_deref().ok_or_else(|| Error::Gpu("the scene's triangles are not baked".into()))?;
-        Self::from_source(renderer, shaders::test_kernel_source(Some(baked), &DeclaredBindings::plain()))
+        let baked = scene.baked.clone().ok_or_else(|| Error::Gpu("the scene's triangles are not baked".into()))?;
+        Ok(TestKernel { baked: Some(baked), ..Self::new(renderer)? })
     }
 
-    fn with_stack(renderer: &'a Renderer, bvh_stack: u32) -> Result<Self> {
-        Self::from_source(
-            renderer,
-            shaders::test_kernel_source(None, &DeclaredBindings { bvh_stack, ..DeclaredBindings::plain() }),
-        )
-    }
-
-    fn from_source(renderer: &'a Renderer, source: String) -> Result<Self> {
+    /// The kernel for scenes whose arrays are in `arrays`, compiled now if it is not yet.
+    fn kernel(&self, arrays: SceneArrayMemory) -> Result<Arc<Kernel>> {
+        let mut kernels = self.kernels.lock().expect("test kernels");
+        if let Some((_, k)) = kernels.iter().find(|(a, _)| *a == arrays) {
+            return Ok(k.clone());
+        }
+        let declared = DeclaredBindings { arrays, bvh_stack: self.bvh_stack, ..DeclaredBindings::plain() };
         let (mut pipelines, layout) = bindings::create_pipelines(
-            &renderer.gpu.device,
+            &self.renderer.gpu.device,
             "veach test kernels",
-            source,
+            shaders::test_kernel_source(self.baked.as_deref(), &declared),
             &[shaders::TEST_ENTRY_POINT],
             bindings::ExtraBindings {
-                arrays: Default::default(),
+                arrays,
                 textures: true,
                 deferred: false,
                 test_io: true,
@@ -82,18 +90,16 @@ impl<'a> TestKernel<'a> {
             &[],
         )
         .map_err(Error::Gpu)?;
-        let pipeline = pipelines.remove(0);
-        Ok(TestKernel {
-            renderer,
-            kernel: Kernel {
-                textures: true,
-                texel_arrays: false,
-                emitter_grid: false,
-                pipeline,
-                wavefront: None,
-                layout,
-            },
-        })
+        let kernel = Arc::new(Kernel {
+            textures: true,
+            texel_arrays: arrays.texels,
+            emitter_grid: false,
+            pipeline: pipelines.remove(0),
+            wavefront: None,
+            layout,
+        });
+        kernels.push((arrays, kernel.clone()));
+        Ok(kernel)
     }
 
     /// Runs `params.routine` over `params.count` items; returns `outputs_per_item` vec4s per item.
@@ -130,8 +136,9 @@ impl<'a> TestKernel<'a> {
         let unused: Vec<wgpu::Buffer> =
             (0..bindings::OUTPUT_COUNT).map(|_| storage("unused", 16, wgpu::BufferUsages::empty())).collect();
         let outputs = [&unused[0], &unused[1], &unused[2], &unused[3], &unused[4]];
+        let kernel = self.kernel(scene.arrays)?;
         let bind_group = self.renderer.bind_group(
-            &self.kernel,
+            &kernel,
             &frame_buffer,
             scene,
             &outputs,
@@ -147,7 +154,7 @@ impl<'a> TestKernel<'a> {
         let mut encoder = device.create_command_encoder(&Default::default());
         {
             let mut pass = encoder.begin_compute_pass(&Default::default());
-            pass.set_pipeline(&self.kernel.pipeline);
+            pass.set_pipeline(&kernel.pipeline);
             pass.set_bind_group(0, &bind_group, &[]);
             pass.dispatch_workgroups(gx, gy, 1);
         }
