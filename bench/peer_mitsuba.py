@@ -142,6 +142,11 @@ def main():
     out_dir = Path(args.output)
     out_dir.mkdir(parents=True, exist_ok=True)
     budgets = [1 << k for k in range(20) if (1 << k) <= args.max_spp]
+    # The counts each sampler takes as asked: `ldsampler` rounds up to a square power of two (1
+    # and 2 to 4, 8 to 16), so its rows at 1, 2 and 8 spp would be 4 and 16 under another label.
+    # A count a sampler rounds is left out of its rows and tables.
+    takes = {(spp, s) for spp in budgets for s in samplers
+             if mi.load_dict({"type": s, "sample_count": spp}).sample_count() == spp}
     rows = []
     skipped = []
     summary = []
@@ -222,6 +227,8 @@ def main():
                 rows.append((name, "veach", spp, seed, seconds, e, e))
                 line = f"{name} spp {spp} seed {seed}: veach {seconds:.3f} s relMSE {e:.3e}"
                 for sampler in samplers:
+                    if (spp, sampler) not in takes:
+                        continue
                     img, seconds = mitsuba_render(spp, seed, sampler)
                     rows.append((name, f"mitsuba-{sampler}", spp, seed, seconds, relmse(img, reference),
                                  relmse(img, m_reference)))
@@ -250,6 +257,8 @@ def main():
 
         for sampler in samplers:
             for spp in budgets:
+                if (spp, sampler) not in takes:
+                    continue
                 vt, vr, ve, _, _ = medians("veach", spp)
                 mt, mr, me, mr_own, me_own = medians(f"mitsuba-{sampler}", spp)
                 summary.append((sampler, name, spp, vt, vr, ve, mt, mr, me, ve / me, mr_own, ve / me_own, floor))

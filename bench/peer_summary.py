@@ -44,7 +44,9 @@ def main():
             continue
         vt, vr = median_of(scene, "veach", 0), median_of(scene, "veach", 1)
         best = None
-        for renderer in sorted({k[1] for k in rows if k[0] == scene and k[1].startswith("mitsuba-")}):
+        # The samplers that took this count (peer_mitsuba.py leaves out a count a sampler rounds).
+        samplers = {k[1] for k in rows if k[0] == scene and k[2] == spp and k[1].startswith("mitsuba-")}
+        for renderer in sorted(samplers):
             mt, mr = median_of(scene, renderer, 0), median_of(scene, renderer, 2)
             if mr > 0 and (best is None or mt * mr < best[0] * best[1]):
                 best = (mt, mr, renderer.removeprefix("mitsuba-"))
