@@ -50,7 +50,8 @@ pub struct TestKernel<'a> {
 const WORKGROUP: u32 = 64;
 
 impl<'a> TestKernel<'a> {
-    /// The test kernels with the traversal stack of most scenes (`BVH_STACK_SIZE`).
+    /// The test kernels with the traversal stack of most scenes (`BVH_STACK_SIZE`). Nothing is
+    /// compiled yet: `run` compiles a kernel for its scene's arrays and returns what fails.
     pub fn new(renderer: &'a Renderer) -> Result<Self> {
         Ok(TestKernel { renderer, baked: None, bvh_stack: BVH_STACK_SIZE, kernels: Mutex::default() })
     }
