@@ -153,22 +153,14 @@ pub struct Renderer {
 }
 
 fn storage_buffer<T: bytemuck::Pod + Default>(device: &wgpu::Device, label: &str, data: &[T]) -> wgpu::Buffer {
-    scene_buffer(device, label, data, wgpu::BufferUsages::empty())
+    storage_bytes(device, label, &array_bytes(data), wgpu::BufferUsages::empty())
 }
 
-/// A storage buffer that may also be bound as `also`.
-fn scene_buffer<T: bytemuck::Pod + Default>(
-    device: &wgpu::Device,
-    label: &str,
-    data: &[T],
-    also: wgpu::BufferUsages,
-) -> wgpu::Buffer {
-    // Bindings may not be empty: an empty array is uploaded as one zeroed element.
-    let fallback = [T::default()];
-    let contents: &[T] = if data.is_empty() { &fallback } else { data };
+/// A storage buffer of `bytes` that may also be bound as `also`.
+fn storage_bytes(device: &wgpu::Device, label: &str, bytes: &[u8], also: wgpu::BufferUsages) -> wgpu::Buffer {
     device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label: Some(label),
-        contents: bytemuck::cast_slice(contents),
+        contents: bytes,
         usage: wgpu::BufferUsages::STORAGE | also,
     })
 }
@@ -216,12 +208,17 @@ fn texel_rows(bytes: usize) -> u32 {
     (bytes.div_ceil(16).div_ceil(bindings::TEXEL_ROW as usize)).max(1) as u32
 }
 
+/// The bytes of `texel_array`'s texture for an array of `bytes`: whole rows.
+fn texel_array_bytes(bytes: usize) -> usize {
+    texel_rows(bytes) as usize * bindings::TEXEL_ROW as usize * 16
+}
+
 /// An `rgba32uint` storage texture of `bytes` (a multiple of 16), TEXEL_ROW texels a row, the last
 /// row padded with zeros: how CPU adapters read a scene array (`SceneArrayMemory::texels`).
 pub fn texel_array(device: &wgpu::Device, queue: &wgpu::Queue, label: &str, bytes: &[u8]) -> wgpu::TextureView {
     let rows = texel_rows(bytes.len());
     let mut padded = bytes.to_vec();
-    padded.resize((rows * bindings::TEXEL_ROW * 16) as usize, 0);
+    padded.resize(texel_array_bytes(bytes.len()), 0);
     let texture = device.create_texture_with_data(
         queue,
         &wgpu::TextureDescriptor {
@@ -488,15 +485,10 @@ impl Renderer {
             let (label, bytes) = &sources[k];
             if texels && k != bindings::MATERIALS {
                 let view = texel_array(device, &self.gpu.queue, label, bytes);
-                let bytes = texel_rows(bytes.len()) as u64 * bindings::TEXEL_ROW as u64 * 16;
-                SceneArray::Texels { view, bytes }
+                SceneArray::Texels { view, bytes: texel_array_bytes(bytes.len()) as u64 }
             } else {
                 let usage = if k == bindings::MATERIALS { materials_usage } else { wgpu::BufferUsages::empty() };
-                SceneArray::Buffer(device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-                    label: Some(*label),
-                    contents: &bytes[..],
-                    usage: wgpu::BufferUsages::STORAGE | usage,
-                }))
+                SceneArray::Buffer(storage_bytes(device, label, bytes, usage))
             }
         });
         // Scenes without textures upload none: their kernels do not bind any.
