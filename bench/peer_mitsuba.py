@@ -10,7 +10,7 @@ then veach (MIS, 1 light + 1 BRDF sample per camera sample, one light chosen per
 the light tree (--veach-light-selection), the power heuristic: veach's defaults) and
 Mitsuba 3 (`llvm_ad_rgb`, integrator `direct` with emitter_samples = bsdf_samples
 = 1, whose MIS weights are the power heuristic with the sample counts: the same estimator) render
-at 1, 2, 4 ... --max-spp samples per pixel over --seeds seeds. Emitters seen directly are left
+at --min-spp, twice that ... --max-spp samples per pixel (powers of two) over --seeds seeds. Emitters seen directly are left
 out of every image (both renderers' hide_emitters), so errors measure reflected light, as
 `veach bench` does. Times are render times: veach's from its --stats (kernel creation and
 uploads excluded), Mitsuba's wall clock around mi.render after one untimed render at the same
@@ -108,6 +108,9 @@ def main():
     ap.add_argument("-o", "--output", default="target/peer")
     ap.add_argument("--width", type=int, default=256)
     ap.add_argument("--height", type=int, default=256)
+    ap.add_argument("--min-spp", type=int, default=1,
+                    help="the smallest sample count measured (powers of two from it to --max-spp); several "
+                         "--seeds at one count give medians that one run's timing noise does not move")
     ap.add_argument("--max-spp", type=int, default=64)
     ap.add_argument("--seeds", type=int, default=3)
     ap.add_argument("--reference-spp", type=int, default=512)
@@ -141,7 +144,9 @@ def main():
 
     out_dir = Path(args.output)
     out_dir.mkdir(parents=True, exist_ok=True)
-    budgets = [1 << k for k in range(20) if (1 << k) <= args.max_spp]
+    budgets = [1 << k for k in range(20) if args.min_spp <= (1 << k) <= args.max_spp]
+    if not budgets:
+        sys.exit(f"no power of two between --min-spp {args.min_spp} and --max-spp {args.max_spp}")
     # The counts each sampler takes as asked: `ldsampler` rounds up to a square power of two (1
     # and 2 to 4, 8 to 16), so its rows at 1, 2 and 8 spp would be 4 and 16 under another label.
     # A count a sampler rounds is left out of its rows and tables.

@@ -5,7 +5,7 @@ it, then times every zoo scene whose kernel the switch changes, with and without
 Prints a line per scene and per path (the zoo's geometric mean counts the other scenes as 1.00x)
 and writes CSV. docs/performance.md, "Driver-specific paths on the zoo", is its output.
 
-    scripts/driver-paths.py ZOO_DIR OUT.csv [--runs 5] [--spp 16] [--size 256]
+    scripts/driver-paths.py ZOO_DIR OUT.csv [--runs 5] [--spp 16] [--size 256] [--switches A,B]
 
 It runs on the system's Vulkan driver; VK_ICD_FILENAMES picks another (Mesa 25's lavapipe for the
 last three switches, which change nothing on Mesa 22.3).
@@ -60,7 +60,13 @@ def main():
     ap.add_argument("zoo"); ap.add_argument("out")
     ap.add_argument("--runs", type=int, default=5); ap.add_argument("--spp", type=int, default=16)
     ap.add_argument("--size", type=int, default=256)
+    ap.add_argument("--switches", default=",".join(SWITCHES),
+                    help="comma-separated switches to time (default: all of them)")
     a = ap.parse_args()
+    switches = [x for x in a.switches.split(",") if x]
+    unknown = [x for x in switches if x not in SWITCHES]
+    if unknown:
+        sys.exit(f"unknown switches {unknown}; known: {', '.join(SWITCHES)}")
     root = subprocess.check_output(["git", "rev-parse", "--show-toplevel"]).decode().strip()
     veach = build(root)
     def render(scene, switch):
@@ -76,7 +82,7 @@ def main():
     scenes = sorted(glob.glob(os.path.join(a.zoo, "*.gltf")))
     kernels = {s: render(s, None)[1] for s in scenes}
     out = open(a.out, "w"); out.write("path,scene,with_s,without_s,without_over_with\n")
-    for switch in SWITCHES:
+    for switch in switches:
         ratios = []
         for s in scenes:
             if render(s, switch)[1] == kernels[s]:
