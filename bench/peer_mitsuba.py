@@ -251,7 +251,8 @@ def main():
         # that drew nothing, at an efficiency of 0.00x): say so rather than print tables of it.
         # The lowest relMSE past the first count is compared, not the last: on a scene of heavy
         # tails one firefly can lift a single count's (zoo lights-100, seed 1: 0.78, 0.33, 0.14,
-        # 0.057, then 0.20 at 16 spp).
+        # 0.057, then 0.20 at 16 spp). It needs two counts: a run at one count (--min-spp equal to
+        # --max-spp) is not checked.
         if len(budgets) > 1 and budgets[-1] >= 8:
             first = medians("veach", budgets[0])[1]
             lowest = min(medians("veach", spp)[1] for spp in budgets[1:])
