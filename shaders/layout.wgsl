@@ -100,11 +100,11 @@ struct FrameParams {
     // The sequence index of a pixel's sample 0 (--first-sample): counts and sums stay per
     // render, only the sample streams are offset (megakernel.wgsl, pixel_sample_stream).
     first_sample: u32,
-    // SELECT_TREE: the light tree's nodes (0: none), then this many directional lights' leaves
+    // SELECT_TREE: the light tree's slots (0: none), then this many directional lights' leaves
     // (light_tree.wgsl).
-    light_tree_nodes: u32,
+    light_tree_slots: u32,
     directional_lights: u32,
-    // 1: the tree's array holds each tree node's lit box after the directional leaves
+    // 1: the tree's array holds each tree slot's lit box after the directional leaves
     // (light_tree.wgsl, lit_factor).
     light_tree_lit_boxes: u32,
 }
@@ -254,26 +254,36 @@ struct LightPick {
     tree_trail: u32,
 }
 
-// A node of the light tree (crates/veach/src/light_tree.rs), 32 bytes (the walk loads two a
-// step): the bounds of the lights below it (a sphere around their box, their power, normals within
-// θ_o of an axis, each emitting up to θ_e off its normal) and its first child (the second follows
-// it) or, in a leaf, its light.
-struct LightTreeNode {
-    centre: vec3f,
-    radius: f32,
-    phi: f32,
-    // The axis, decode_normal'd.
-    axis: u32,
-    // cos θ_o (low half) and cos θ_e as unorm16 of (cos + 1) / 2, rounded down by the host (and
-    // θ_o widened by the axis's encoding error), so that the cones only grow.
-    cosines: u32,
-    // The first child's index, or in a leaf (LIGHT_TREE_LEAF) the light's; LIGHT_TREE_TWO_SIDED.
-    child_or_light: u32,
+// A slot of the light tree (crates/veach/src/light_tree.rs), 32 bytes: the walk loads one a step.
+// An inner node's slot holds both children's bounds, quantised within the node's decoded sphere
+// (light_tree.wgsl, tree_child): the first child's slot (the second follows it) and flags, each
+// child's centre as three 10-bit offsets, their radii and cos θ_e, emission axes, cos θ_o and
+// shares of the node's power. A leaf's slot holds its light in `children`; slot 0, the root's
+// sphere.
+struct LightTreeSlot {
+    // The first child's slot; LIGHT_TREE_LEAF << c and LIGHT_TREE_TWO_SIDED << c for child c.
+    children: u32,
+    // Per axis 10 bits (x lowest): the child's centre at the node's centre plus its radius times
+    // (2 q / 1023 − 1).
+    centre_a: u32,
+    centre_b: u32,
+    // The children's radii as unorm8 of radius / (node radius · LIGHT_TREE_RADIUS_SCALE) (bytes
+    // 0, 1) and their cos θ_e as snorm8 (bytes 2, 3), rounded by the host so that bounds only grow.
+    radii_cos_e: u32,
+    // The emission cones' axes, decode_normal'd.
+    axis_a: u32,
+    axis_b: u32,
+    // cos θ_o of each as unorm16 of (cos + 1) / 2, rounded down (θ_o widened by the axis's
+    // encoding error).
+    cos_o: u32,
+    // Each child's share of the node's power, f16 (normal: at least 2^-14).
+    phi: u32,
 }
 
-const LIGHT_TREE_LEAF: u32 = 0x80000000u;
+const LIGHT_TREE_LEAF: u32 = 0x10000000u;
 const LIGHT_TREE_TWO_SIDED: u32 = 0x40000000u;
-const LIGHT_TREE_INDEX: u32 = 0x3fffffffu;
+const LIGHT_TREE_INDEX: u32 = 0x0fffffffu;
+const LIGHT_TREE_RADIUS_SCALE: f32 = 1.015625;
 
 // Parameters of the test kernels (shaders/test_kernels.wgsl).
 struct TestParams {

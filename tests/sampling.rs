@@ -759,9 +759,9 @@ fn the_light_tree_chooses_lights_with_the_probabilities_it_reports() {
             wo: normal.to_array(),
             ..Default::default()
         };
-        let (light_tree_nodes, directional_lights) = scene.light_tree_counts();
+        let (light_tree_slots, directional_lights) = scene.light_tree_counts();
         let frame = FrameParams {
-            light_tree_nodes,
+            light_tree_slots,
             directional_lights,
             light_tree_lit_boxes: scene.light_tree_lit_boxes() as u32,
             ..frame(n_lights as u32, layout::SELECT_TREE, 0)

@@ -10,10 +10,10 @@
 //! Lights without power stay out too: no point chooses them (as with selection by power).
 
 use crate::gpu::layout::{
-    LIGHT_TREE_INDEX, LIGHT_TREE_LEAF, LIGHT_TREE_TWO_SIDED, LightTreeNode, decode_normal, encode_normal,
+    LIGHT_TREE_INDEX, LIGHT_TREE_LEAF, LIGHT_TREE_TWO_SIDED, LightTreeSlot, decode_normal, encode_normal,
 };
 use crate::lit_boxes::LitBox;
-use glam::{Quat, Vec3};
+use glam::{DVec3, Quat, Vec3};
 use std::f32::consts::PI;
 
 /// What the tree knows of a light or a subtree: a box around its emitters, its power `phi`, and
@@ -116,7 +116,8 @@ impl LightBounds {
 }
 
 /// A node's bounds as the walk reads them: the sphere around the box (centre, radius = half the
-/// diagonal), power, emission cone with its sine (LightTreeNode on the GPU).
+/// diagonal), power, emission cone with its sine (a child decoded from its slot, `LightTree::child_bounds`;
+/// `tree_child` on the GPU).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NodeBounds {
     pub centre: Vec3,
@@ -238,19 +239,20 @@ pub fn spot_light_bounds(position: Vec3, direction: Vec3, cos_outer: f32, phi: f
     }
 }
 
-/// The tree as the GPU reads it: nodes with the root at 0 and each inner node's two children
-/// side by side, then one leaf per directional light (`directional`); and per light the path
-/// from the root to its leaf (bit d: the second child at depth d; `NOT_IN_TREE` for lights the
-/// tree leaves out).
+/// The tree as the GPU reads it (`LightTreeSlot`): slot 0 the root's sphere (`root_slot`), slot 1
+/// the root, and each inner node's slot its two children's bounds (`encode_children`), the
+/// children's slots side by side; then one slot per directional light (`directional`); and per
+/// light the path from the root to its leaf (bit d: the second child at depth d; `NOT_IN_TREE` for
+/// lights the tree leaves out).
 pub struct LightTree {
-    pub nodes: Vec<LightTreeNode>,
-    /// Nodes of the tree proper (0: every light with power is directional, or there is none).
-    pub tree_nodes: u32,
+    pub slots: Vec<LightTreeSlot>,
+    /// Slots of the tree proper (0: every light with power is directional, or there is none).
+    pub tree_slots: u32,
     pub directional: u32,
     pub trails: Vec<u32>,
-    /// Each tree node's lit box (`None`: it may light anything). Where any node has one, `nodes`
-    /// holds after the directional leaves one more element per tree node: its box, encoded by
-    /// `lit_box_node`.
+    /// Each tree slot's lit box (`None`: it may light anything). Where any node has one, `slots`
+    /// holds after the directional leaves one more slot per tree slot: its box, encoded by
+    /// `lit_box_slot`.
     pub lit: Vec<Option<LitBox>>,
     /// The lights in the tree that have a lit box.
     pub sealed_lights: u32,
@@ -269,15 +271,20 @@ pub fn lit_factor(lit: &Option<LitBox>, p: Vec3) -> f32 {
     }
 }
 
-/// A lit box as light_tree.wgsl's `lit_factor` reads it, in a node's place: `centre` the low
-/// corner, `radius`, `phi` and `axis`'s bits the high one; without a box, the whole f32 range.
-fn lit_box_node(lit: &Option<LitBox>) -> LightTreeNode {
+/// A lit box as light_tree.wgsl's `lit_factor` reads it, in a slot's place: the low corner in
+/// `children`, `centre_a` and `centre_b`, the high one in `radii_cos_e`, `axis_a` and `axis_b`
+/// (f32 bits); without a box, the whole f32 range.
+fn lit_box_slot(lit: &Option<LitBox>) -> LightTreeSlot {
     let b = lit.unwrap_or(LitBox { min: Vec3::splat(-f32::MAX), max: Vec3::splat(f32::MAX) });
-    LightTreeNode {
-        centre: b.min.to_array(),
-        radius: b.max.x,
-        phi: b.max.y,
-        axis: b.max.z.to_bits(),
+    let [lx, ly, lz] = b.min.to_array().map(f32::to_bits);
+    let [hx, hy, hz] = b.max.to_array().map(f32::to_bits);
+    LightTreeSlot {
+        children: lx,
+        centre_a: ly,
+        centre_b: lz,
+        radii_cos_e: hx,
+        axis_a: hy,
+        axis_b: hz,
         ..Default::default()
     }
 }
@@ -291,6 +298,15 @@ const MEDIAN_SPLIT_DEPTH: u32 = 20;
 /// Buckets per axis of the binned split search (pbrt-v4's 12).
 const BUCKETS: usize = 12;
 
+/// A node of the tree as built, before its bounds are quantised: the root at 0, each inner node's
+/// children side by side.
+struct TreeNode {
+    bounds: LightBounds,
+    /// The first child, or in a leaf its light.
+    child_or_light: u32,
+    leaf: bool,
+}
+
 /// Builds the tree over the lights with `Some` bounds and positive power; `directional` are the
 /// indices of the directional lights.
 pub fn build_light_tree(bounds: &[Option<LightBounds>], directional: &[u32]) -> LightTree {
@@ -301,26 +317,25 @@ pub fn build_light_tree(bounds: &[Option<LightBounds>], directional: &[u32]) -> 
         .collect();
     let sealed_lights = items.iter().filter(|(_, b)| b.lit.is_some()).count() as u32;
     let mut nodes = Vec::new();
-    let mut lit = Vec::new();
     let mut trails = vec![NOT_IN_TREE; bounds.len()];
     if !items.is_empty() {
-        nodes.push(LightTreeNode::default());
-        lit.push(None);
-        build(&mut items, 0, 0, 0, &mut Built { nodes: &mut nodes, lit: &mut lit, trails: &mut trails });
+        nodes.push(TreeNode { bounds: items[0].1, child_or_light: 0, leaf: true });
+        build(&mut items, 0, 0, 0, &mut Built { nodes: &mut nodes, trails: &mut trails });
     }
-    let tree_nodes = nodes.len() as u32;
+    let (mut slots, mut lit) = encode_tree(&nodes);
+    let tree_slots = slots.len() as u32;
     for &light in directional {
-        nodes.push(LightTreeNode { child_or_light: light | LIGHT_TREE_LEAF, ..Default::default() });
+        slots.push(LightTreeSlot { children: light, ..Default::default() });
     }
     if lit.iter().any(Option::is_some) {
-        nodes.extend(lit.iter().map(lit_box_node));
+        slots.extend(lit.iter().map(lit_box_slot));
     } else {
         lit.clear();
     }
-    LightTree { nodes, tree_nodes, directional: directional.len() as u32, trails, lit, sealed_lights }
+    LightTree { slots, tree_slots, directional: directional.len() as u32, trails, lit, sealed_lights }
 }
 
-/// A cosine as the node stores it: unorm16 of (cos + 1) / 2, rounded down (a wider cone).
+/// A cosine as the tree stores it: unorm16 of (cos + 1) / 2, rounded down (a wider cone).
 fn encode_cosine(c: f32) -> u32 {
     let mut q = (((c.clamp(-1.0, 1.0) + 1.0) / 2.0) * 65535.0).floor() as u32;
     while q > 0 && decode_cosine(q) > c {
@@ -334,21 +349,149 @@ fn decode_cosine(q: u32) -> f32 {
     (q & 0xffff) as f32 / 65535.0 * 2.0 - 1.0
 }
 
-fn node_of(b: &LightBounds) -> LightTreeNode {
-    let n = NodeBounds::from(b);
-    // The axis as decoded, and the cone widened by the angle the encoding moved it.
-    let axis = encode_normal(n.axis.to_array());
-    let moved = Vec3::from(decode_normal(axis)).as_dvec3().angle_between(n.axis.as_dvec3());
-    let theta_o = (n.cos_o.clamp(-1.0, 1.0) as f64).acos() + moved + 1.0e-6;
-    let cos_o = if theta_o >= std::f64::consts::PI { -1.0 } else { theta_o.cos() as f32 };
-    LightTreeNode {
-        centre: n.centre.to_array(),
-        radius: n.radius,
-        phi: n.phi,
-        axis,
-        cosines: encode_cosine(cos_o) | encode_cosine(n.cos_e) << 16,
-        child_or_light: if n.two_sided { LIGHT_TREE_TWO_SIDED } else { 0 },
+/// cos θ_e as snorm8, rounded down (a wider cone; 0, a surface's horizon, is exact).
+fn encode_cos_e(c: f32) -> u32 {
+    let mut q = (c.clamp(-1.0, 1.0) * 127.0).floor() as i32;
+    while q > -127 && decode_cos_e(q as u32) > c {
+        q -= 1;
     }
+    q as i8 as u8 as u32
+}
+
+/// `unpack4x8snorm`'s lane.
+fn decode_cos_e(q: u32) -> f32 {
+    ((q & 0xff) as u8 as i8 as f32 / 127.0).max(-1.0)
+}
+
+/// A child's radius is at most its parent's (its box lies in the parent's), and its quantised
+/// sphere at most this many times the parent's decoded one: the unorm8's unit is
+/// parent radius · LIGHT_TREE_RADIUS_SCALE / 255.
+pub const LIGHT_TREE_RADIUS_SCALE: f32 = 1.0 + 1.0 / 64.0;
+
+/// How far the GPU's decoding may stray from the host's, relative to the root's radius per
+/// node (f32 rounding, contracted multiply-adds; about 2^-22 a level over at most 32 levels) and
+/// to a radius; each decoded sphere is grown by it so that it holds its lights on either side.
+const SPHERE_MARGIN: f64 = 1.0e-5;
+
+/// The least share of its node's power a child keeps: f16's least normal number (2^-14), so that
+/// no light loses its probability to rounding and the walk decodes shares by a bit shift.
+const MIN_SHARE: u16 = 0x0400;
+
+/// A node's sphere as the walk decodes it, its centre relative to the root's.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sphere {
+    pub centre: Vec3,
+    pub radius: f32,
+}
+
+/// A child's centre from its 10-bit offsets in its parent's decoded sphere (light_tree.wgsl's
+/// `tree_child`, the same float operations).
+fn decode_centre(bits: u32, parent: Sphere) -> Vec3 {
+    let q = Vec3::new((bits & 1023) as f32, (bits >> 10 & 1023) as f32, (bits >> 20 & 1023) as f32);
+    parent.centre + parent.radius * (q * (2.0 / 1023.0) - Vec3::ONE)
+}
+
+/// A child's radius from its unorm8 (`tree_child`).
+fn decode_radius(q: u32, parent: Sphere) -> f32 {
+    parent.radius * (((q & 0xff) as f32 / 255.0) * LIGHT_TREE_RADIUS_SCALE)
+}
+
+/// Slot 0: the root's centre (the origin of every decoded centre, in world space) in `centre_a`,
+/// `centre_b`, `radii_cos_e`, its radius in `axis_a` (f32 bits); in `children` the root's slot
+/// (1), with `LIGHT_TREE_LEAF` where the root is a leaf.
+fn root_slot(origin: Vec3, radius: f32, leaf: bool) -> LightTreeSlot {
+    let [x, y, z] = origin.to_array().map(f32::to_bits);
+    let children = 1 | if leaf { LIGHT_TREE_LEAF } else { 0 };
+    LightTreeSlot { children, centre_a: x, centre_b: y, radii_cos_e: z, axis_a: radius.to_bits(), ..Default::default() }
+}
+
+/// The sphere around a node's box, its centre relative to `origin` (in f64).
+fn sphere_of(b: &LightBounds, origin: DVec3) -> (DVec3, f64) {
+    let (min, max) = (b.min.as_dvec3(), b.max.as_dvec3());
+    (0.5 * (min + max) - origin, 0.5 * (max - min).length())
+}
+
+/// Quantises the tree's nodes into slots, each inner node's children within its decoded sphere,
+/// and gives each slot its lit box.
+fn encode_tree(nodes: &[TreeNode]) -> (Vec<LightTreeSlot>, Vec<Option<LitBox>>) {
+    let Some(root) = nodes.first() else { return (Vec::new(), Vec::new()) };
+    let centre = 0.5 * (root.bounds.min + root.bounds.max);
+    let (offset, radius) = sphere_of(&root.bounds, centre.as_dvec3());
+    // Lights beyond f32's range stay finite: inf would decode to NaN.
+    let root_radius =
+        (((offset.length() + radius) * (1.0 + SPHERE_MARGIN)) as f32 * (1.0 + f32::EPSILON)).min(f32::MAX);
+    let margin = SPHERE_MARGIN * root_radius as f64;
+    // Node i sits in slot i + 1.
+    let mut slots = vec![root_slot(centre, root_radius, root.leaf)];
+    let mut lit = vec![None];
+    let mut decoded = vec![Sphere { centre: Vec3::ZERO, radius: root_radius }; nodes.len()];
+    for (i, node) in nodes.iter().enumerate() {
+        lit.push(node.bounds.lit);
+        if node.leaf {
+            slots.push(LightTreeSlot { children: node.child_or_light, ..Default::default() });
+            continue;
+        }
+        let first = node.child_or_light as usize;
+        let (slot, a, b) = encode_children(decoded[i], [&nodes[first], &nodes[first + 1]], centre.as_dvec3(), margin);
+        decoded[first] = a;
+        decoded[first + 1] = b;
+        slots.push(LightTreeSlot { children: slot.children | (first as u32 + 1), ..slot });
+    }
+    (slots, lit)
+}
+
+/// Two children's bounds quantised within their parent's decoded sphere (`LightTreeSlot`), and
+/// their own decoded spheres. Each decoded sphere holds the child's sphere with `margin` and
+/// `SPHERE_MARGIN` to spare; power as each child's share, in f16 (at least `MIN_SHARE`); cones
+/// widened by their rounding.
+fn encode_children(
+    parent: Sphere,
+    children: [&TreeNode; 2],
+    origin: DVec3,
+    margin: f64,
+) -> (LightTreeSlot, Sphere, Sphere) {
+    let mut slot = LightTreeSlot::default();
+    let mut decoded = [parent; 2];
+    let phi = children[0].bounds.phi as f64 + children[1].bounds.phi as f64;
+    for (c, child) in children.into_iter().enumerate() {
+        let b = &child.bounds;
+        let (centre, radius) = sphere_of(b, origin);
+        let q = if parent.radius > 0.0 {
+            let t = (centre - parent.centre.as_dvec3()) / parent.radius as f64;
+            let q = ((t + 1.0) / 2.0 * 1023.0).round().clamp(DVec3::ZERO, DVec3::splat(1023.0));
+            q.x as u32 | (q.y as u32) << 10 | (q.z as u32) << 20
+        } else {
+            511 | 511 << 10 | 511 << 20
+        };
+        let decoded_centre = decode_centre(q, parent);
+        let needed = ((centre - decoded_centre.as_dvec3()).length() + radius + margin) * (1.0 + SPHERE_MARGIN);
+        let unit = parent.radius as f64 * LIGHT_TREE_RADIUS_SCALE as f64 / 255.0;
+        let mut r = if unit > 0.0 { (needed / unit).ceil().min(255.0) as u32 } else { 0 };
+        while r < 255 && (decode_radius(r, parent) as f64) < needed {
+            r += 1;
+        }
+        decoded[c] = Sphere { centre: decoded_centre, radius: decode_radius(r, parent) };
+        // The axis as decoded, and the cone widened by the angle the encoding moved it.
+        let axis = encode_normal(b.axis.to_array());
+        let moved = Vec3::from(decode_normal(axis)).as_dvec3().angle_between(b.axis.as_dvec3());
+        let theta_o = (b.cos_o.clamp(-1.0, 1.0) as f64).acos() + moved + 1.0e-6;
+        let cos_o = if theta_o >= std::f64::consts::PI { -1.0 } else { theta_o.cos() as f32 };
+        let share = half::f16::from_f64(b.phi as f64 / phi).to_bits().max(MIN_SHARE) as u32;
+        let shift = 16 * c as u32;
+        if c == 0 {
+            slot.centre_a = q;
+            slot.axis_a = axis;
+        } else {
+            slot.centre_b = q;
+            slot.axis_b = axis;
+        }
+        slot.radii_cos_e |= r << (8 * c) | encode_cos_e(b.cos_e) << (16 + 8 * c);
+        slot.cos_o |= encode_cosine(cos_o) << shift;
+        slot.phi |= share << shift;
+        slot.children |=
+            if child.leaf { LIGHT_TREE_LEAF << c } else { 0 } | if b.two_sided { LIGHT_TREE_TWO_SIDED << c } else { 0 };
+    }
+    (slot, decoded[0], decoded[1])
 }
 
 /// pbrt-v4's split cost of a subtree (`BVHLightSampler::EvaluateCost`): power times the measure
@@ -371,30 +514,26 @@ fn union_all(items: &[(u32, LightBounds)]) -> LightBounds {
     items[1..].iter().fold(items[0].1, |acc, (_, b)| acc.union(b))
 }
 
-/// The tree as `build` fills it: nodes and their lit boxes side by side, and the lights' paths.
+/// The tree as `build` fills it: the nodes and the lights' paths.
 struct Built<'a> {
-    nodes: &'a mut Vec<LightTreeNode>,
-    lit: &'a mut Vec<Option<LitBox>>,
+    nodes: &'a mut Vec<TreeNode>,
     trails: &'a mut [u32],
 }
 
 /// Fills node `at` with the subtree over `items`, at `depth` along `trail`.
 fn build(items: &mut [(u32, LightBounds)], at: usize, depth: u32, trail: u32, out: &mut Built) {
-    let all = union_all(items);
-    let mut node = node_of(&all);
-    out.lit[at] = all.lit;
+    let bounds = union_all(items);
     if items.len() == 1 {
-        node.child_or_light |= items[0].0 | LIGHT_TREE_LEAF;
-        out.nodes[at] = node;
+        out.nodes[at] = TreeNode { bounds, child_or_light: items[0].0, leaf: true };
         out.trails[items[0].0 as usize] = trail;
         return;
     }
     let mid = split(items, depth);
     let first_child = out.nodes.len();
-    out.nodes.extend([LightTreeNode::default(); 2]);
-    out.lit.extend([None; 2]);
-    node.child_or_light |= first_child as u32;
-    out.nodes[at] = node;
+    for _ in 0..2 {
+        out.nodes.push(TreeNode { bounds, child_or_light: 0, leaf: true });
+    }
+    out.nodes[at] = TreeNode { bounds, child_or_light: first_child as u32, leaf: false };
     assert!(depth + 1 < MAX_DEPTH, "light tree deeper than its 32-bit paths");
     let (left, right) = items.split_at_mut(mid);
     build(left, first_child, depth + 1, trail, out);
@@ -455,19 +594,31 @@ fn split(items: &mut [(u32, LightBounds)], depth: u32) -> usize {
 }
 
 impl LightTree {
-    fn bounds_at(&self, index: usize) -> NodeBounds {
-        let n = &self.nodes[index];
-        let cos_o = decode_cosine(n.cosines);
+    /// The root's centre (world space), its decoded sphere, and whether it is a leaf.
+    fn root(&self) -> (Vec3, Sphere, bool) {
+        let s = &self.slots[0];
+        let origin = Vec3::new(f32::from_bits(s.centre_a), f32::from_bits(s.centre_b), f32::from_bits(s.radii_cos_e));
+        (origin, Sphere { centre: Vec3::ZERO, radius: f32::from_bits(s.axis_a) }, s.children & LIGHT_TREE_LEAF != 0)
+    }
+
+    /// Child `c` of the inner node in slot `at` whose decoded sphere is `parent`, as the walk
+    /// decodes it (light_tree.wgsl's `tree_child`), with its lit box.
+    pub fn child_bounds(&self, at: usize, c: usize, parent: Sphere) -> NodeBounds {
+        let s = &self.slots[at];
+        let shift = 16 * c as u32;
+        let centre = decode_centre(if c == 0 { s.centre_a } else { s.centre_b }, parent);
+        let radius = decode_radius(s.radii_cos_e >> (8 * c), parent);
+        let cos_o = decode_cosine(s.cos_o >> shift);
         NodeBounds {
-            centre: n.centre.into(),
-            radius: n.radius,
-            axis: decode_normal(n.axis).into(),
-            phi: n.phi,
+            centre,
+            radius,
+            axis: decode_normal(if c == 0 { s.axis_a } else { s.axis_b }).into(),
+            phi: half::f16::from_bits((s.phi >> shift) as u16).to_f32(),
             cos_o,
             sin_o: safe_sqrt(1.0 - cos_o * cos_o),
-            cos_e: decode_cosine(n.cosines >> 16),
-            two_sided: n.child_or_light & LIGHT_TREE_TWO_SIDED != 0,
-            lit: self.lit.get(index).copied().flatten(),
+            cos_e: decode_cos_e(s.radii_cos_e >> (16 + 8 * c)),
+            two_sided: (s.children >> c) & LIGHT_TREE_TWO_SIDED != 0,
+            lit: self.lit.get((s.children & LIGHT_TREE_INDEX) as usize + c).copied().flatten(),
         }
     }
 
@@ -476,7 +627,7 @@ impl LightTree {
     /// tree's share times, at each node on the light's path, its child's part of the two
     /// children's importance (by power where both are zero).
     pub fn pmf(&self, light: u32, is_directional: bool, p: Vec3, n: Vec3) -> f32 {
-        let has_tree = (self.tree_nodes > 0) as u32;
+        let has_tree = (self.tree_slots > 0) as u32;
         let share = 1.0 / (self.directional + has_tree) as f32;
         if is_directional {
             return share;
@@ -485,25 +636,59 @@ impl LightTree {
         if trail == NOT_IN_TREE {
             return 0.0;
         }
+        let (origin, mut sphere, mut leaf) = self.root();
+        let p_rel = p - origin;
         let mut pmf = share;
-        let mut at = 0usize;
-        while self.nodes[at].child_or_light & LIGHT_TREE_LEAF == 0 {
-            let child = (self.nodes[at].child_or_light & LIGHT_TREE_INDEX) as usize;
-            let p0 = first_child_share(&self.bounds_at(child), &self.bounds_at(child + 1), p, n);
-            let second = trail & 1 == 1;
-            pmf *= if second { 1.0 - p0 } else { p0 };
-            at = child + second as usize;
+        let mut at = 1usize;
+        while !leaf {
+            let (a, b) = (self.child_bounds(at, 0, sphere), self.child_bounds(at, 1, sphere));
+            let p0 = first_child_share(&a, &b, p_rel, p, n);
+            let second = (trail & 1) as usize;
+            pmf *= if second == 1 { 1.0 - p0 } else { p0 };
+            sphere = if second == 1 {
+                Sphere { centre: b.centre, radius: b.radius }
+            } else {
+                Sphere { centre: a.centre, radius: a.radius }
+            };
+            let children = self.slots[at].children;
+            leaf = (children >> second) & LIGHT_TREE_LEAF != 0;
+            at = (children & LIGHT_TREE_INDEX) as usize + second;
             trail >>= 1;
         }
         pmf
     }
+
+    /// Every node's slot and decoded sphere, for the tests.
+    #[cfg(test)]
+    fn decoded_spheres(&self) -> Vec<(usize, Sphere)> {
+        let (_, root, leaf) = self.root();
+        let mut out = Vec::new();
+        let mut stack = vec![(1usize, root, leaf)];
+        while let Some((at, sphere, leaf)) = stack.pop() {
+            out.push((at, sphere));
+            if !leaf {
+                let children = self.slots[at].children;
+                for c in 0..2 {
+                    let b = self.child_bounds(at, c, sphere);
+                    let child = (children & LIGHT_TREE_INDEX) as usize + c;
+                    stack.push((
+                        child,
+                        Sphere { centre: b.centre, radius: b.radius },
+                        (children >> c) & LIGHT_TREE_LEAF != 0,
+                    ));
+                }
+            }
+        }
+        out
+    }
 }
 
-/// The first child's probability at a node: its share of the two importances, each times its
-/// `lit_factor`, or of the two powers where both are zero (or underflow), so that every light with
-/// power keeps a positive probability wherever the estimate fails.
-pub fn first_child_share(a: &NodeBounds, b: &NodeBounds, p: Vec3, n: Vec3) -> f32 {
-    let (ia, ib) = (a.importance(p, n) * lit_factor(&a.lit, p), b.importance(p, n) * lit_factor(&b.lit, p));
+/// The first child's probability at a node: its share of the two importances at `p_rel` (p
+/// relative to the root's centre, where the spheres decode), each times its `lit_factor` at p, or
+/// of the two powers where both are zero (or underflow), so that every light with power keeps a
+/// positive probability wherever the estimate fails.
+pub fn first_child_share(a: &NodeBounds, b: &NodeBounds, p_rel: Vec3, p: Vec3, n: Vec3) -> f32 {
+    let (ia, ib) = (a.importance(p_rel, n) * lit_factor(&a.lit, p), b.importance(p_rel, n) * lit_factor(&b.lit, p));
     if ia + ib > 0.0 { ia / (ia + ib) } else { a.phi / (a.phi + b.phi) }
 }
 
@@ -538,14 +723,74 @@ mod tests {
             let lights = random_lights(n, n as u64);
             let tree = build_light_tree(&lights, &[]);
             for (i, trail) in tree.trails.iter().enumerate() {
-                let (mut at, mut t) = (0usize, *trail);
-                while tree.nodes[at].child_or_light & LIGHT_TREE_LEAF == 0 {
-                    at = (tree.nodes[at].child_or_light & LIGHT_TREE_INDEX) as usize + (t & 1) as usize;
+                let (mut at, mut t) = (1usize, *trail);
+                let mut leaf = tree.slots[0].children & LIGHT_TREE_LEAF != 0;
+                while !leaf {
+                    let children = tree.slots[at].children;
+                    leaf = (children >> (t & 1)) & LIGHT_TREE_LEAF != 0;
+                    at = (children & LIGHT_TREE_INDEX) as usize + (t & 1) as usize;
                     t >>= 1;
                 }
-                assert_eq!(tree.nodes[at].child_or_light & LIGHT_TREE_INDEX, i as u32, "{n} lights: light {i}'s path");
+                assert_eq!(tree.slots[at].children, i as u32, "{n} lights: light {i}'s path");
             }
-            assert_eq!(tree.tree_nodes as usize, 2 * n - 1);
+            assert_eq!(tree.tree_slots as usize, 2 * n);
+        }
+    }
+
+    /// Every node's decoded sphere holds the lights below it with room to spare for the GPU's
+    /// rounding: the quantised bounds only grow (else a light could get probability 0 where it
+    /// lights a point). Lights spread over six decades of size, far from the origin, and many
+    /// at one point (spheres of radius 0 inside wider ones).
+    #[test]
+    fn decoded_spheres_hold_their_lights() {
+        let mut lights = random_lights(2000, 11);
+        let mut rng = SplitMix64(12);
+        for i in 0..500 {
+            let p = Vec3::new(1000.0 + rng.next_f32() * 1e-3, 5.0, rng.next_f32() * 1e-2);
+            let size = 10f32.powf(-6.0 + rng.next_f32() * 6.0);
+            lights.push(Some(area_light_bounds([p, p + Vec3::splat(size)], &[Vec3::Y], 1.0, false)));
+            if i < 50 {
+                lights.push(Some(point_light_bounds(Vec3::new(3.0, 3.0, 3.0), 1.0)));
+            }
+        }
+        let tree = build_light_tree(&lights, &[]);
+        // The slots along each light's path.
+        let paths: Vec<Vec<usize>> = tree
+            .trails
+            .iter()
+            .map(|&trail| {
+                let (mut at, mut t, mut path) = (1usize, trail, vec![1usize]);
+                let mut leaf = tree.slots[0].children & LIGHT_TREE_LEAF != 0;
+                while !leaf {
+                    let children = tree.slots[at].children;
+                    leaf = (children >> (t & 1)) & LIGHT_TREE_LEAF != 0;
+                    at = (children & LIGHT_TREE_INDEX) as usize + (t & 1) as usize;
+                    path.push(at);
+                    t >>= 1;
+                }
+                path
+            })
+            .collect();
+        let (origin, root, _) = tree.root();
+        // What the GPU's rounding may take: half the margin each sphere was given.
+        let spare = SPHERE_MARGIN / 2.0 * root.radius as f64;
+        let spheres = tree.decoded_spheres();
+        assert_eq!(spheres.len(), tree.tree_slots as usize - 1);
+        for (at, sphere) in spheres {
+            for (light, _) in paths.iter().enumerate().filter(|(_, path)| path.contains(&at)) {
+                let b = lights[light].unwrap();
+                for corner in 0..8 {
+                    let pick = |axis: usize| if corner >> axis & 1 == 0 { b.min[axis] } else { b.max[axis] };
+                    let q = DVec3::new(pick(0) as f64, pick(1) as f64, pick(2) as f64) - origin.as_dvec3();
+                    let d = (q - sphere.centre.as_dvec3()).length();
+                    assert!(
+                        d + spare <= sphere.radius as f64,
+                        "slot {at}: light {light}'s corner {q} lies {d} from {}, radius {}",
+                        sphere.centre,
+                        sphere.radius
+                    );
+                }
+            }
         }
     }
 

@@ -60,12 +60,12 @@ pub struct GpuScene {
     /// The emitters' grid, for BVH kernels where the driver branches around code no lane runs and
     /// the grid pays (`gpu::emitter_grid`; `KernelPlan::emitter_grid`).
     pub(crate) emitter_grid: Option<wgpu::Buffer>,
-    /// The light tree's counts of nodes and directional leaves (`crate::light_tree`; its array
-    /// holds one zeroed node where there is no light).
-    pub(crate) light_tree_nodes: u32,
+    /// The light tree's counts of slots and directional leaves (`crate::light_tree`; its array
+    /// holds one zeroed slot where there is no light).
+    pub(crate) light_tree_slots: u32,
     pub(crate) directional_lights: u32,
     /// Lights with a lit box (`LightTree::sealed_lights`): where any has one, the tree's array
-    /// holds its nodes' lit boxes (`LightTree::lit`).
+    /// holds its slots' lit boxes (`LightTree::lit`).
     pub(crate) sealed_lights: u32,
     pub stats: SceneUploadStats,
     /// What the scene needs of the kernel.
@@ -88,10 +88,10 @@ impl GpuScene {
         self.emitter_triangles
     }
 
-    /// The light tree's node count and the directional lights after them (FrameParams'
-    /// light_tree_nodes and directional_lights).
+    /// The light tree's slot count and the directional lights after them (FrameParams'
+    /// light_tree_slots and directional_lights).
     pub fn light_tree_counts(&self) -> (u32, u32) {
-        (self.light_tree_nodes, self.directional_lights)
+        (self.light_tree_slots, self.directional_lights)
     }
 
     /// Whether the light tree's array holds lit boxes (FrameParams' light_tree_lit_boxes).
@@ -447,7 +447,7 @@ impl Renderer {
             ("lights", array_bytes(&arrays.lights)),
             ("emitter_tris", array_bytes(&arrays.emitter_tris)),
             ("light_picks", array_bytes(&arrays.light_picks)),
-            ("light tree", array_bytes(&arrays.light_tree.nodes)),
+            ("light tree", array_bytes(&arrays.light_tree.slots)),
             ("triangle_lights", array_bytes(&arrays.triangle_lights)),
         ];
         let max_rows = device.limits().max_texture_dimension_2d;
@@ -511,7 +511,7 @@ impl Renderer {
             baked,
             texture_buffers,
             light_count: scene.lights.len() as u32,
-            light_tree_nodes: arrays.light_tree.tree_nodes,
+            light_tree_slots: arrays.light_tree.tree_slots,
             directional_lights: arrays.light_tree.directional,
             sealed_lights: arrays.light_tree.sealed_lights,
             emitter_bound: arrays.emitter_bound,
@@ -609,7 +609,7 @@ impl Renderer {
             },
             light_selection: s.light_selection.gpu_code(),
             light_count: scene.light_count,
-            light_tree_nodes: scene.light_tree_nodes,
+            light_tree_slots: scene.light_tree_slots,
             directional_lights: scene.directional_lights,
             light_tree_lit_boxes: scene.light_tree_lit_boxes() as u32,
             _pad: [0; 3],

@@ -106,7 +106,7 @@ struct ArrayReader {
 ///   parameters copied once per invocation").
 /// - the materials (4) are a uniform array where they fit on CPU adapters, else storage;
 /// - `bvh_node`, `vertex_at`, `triangle_at`, `light_record`, `emitter_tri_at`, `light_pick_at`,
-///   `light_tree_node` and `triangle_light` read an element of their arrays (bindings 1-7 but the
+///   `light_tree_slot` and `triangle_light` read an element of their arrays (bindings 1-7 but the
 ///   materials, the light tree (26) and `triangle_lights` (23), four triangles' lights a word
 ///   each to a texel): on CPU adapters from a read-only `rgba32uint` storage texture
 ///   (`SceneArrayMemory::texels`: Mesa 22.3 loads storage lane by lane, each word through the
@@ -181,10 +181,10 @@ pub fn wgsl_declarations(d: &DeclaredBindings) -> String {
     array_with_reader(ArrayReader {
         binding: LIGHT_TREE,
         name: "light_tree",
-        element: "LightTreeNode",
-        reader: "light_tree_node",
+        element: "LightTreeSlot",
+        reader: "light_tree_slot",
         words: 2,
-        from_words: "LightTreeNode(bitcast<vec3f>(w0.xyz), bitcast<f32>(w0.w), bitcast<f32>(w1.x), w1.y, w1.z, w1.w)",
+        from_words: "LightTreeSlot(w0.x, w0.y, w0.z, w0.w, w1.x, w1.y, w1.z, w1.w)",
     });
     // Four triangles' lights to a word of four.
     line(declare(TRIANGLE_LIGHTS, "triangle_lights"));

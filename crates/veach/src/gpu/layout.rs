@@ -100,11 +100,11 @@ pub struct FrameParams {
     /// first_sample + spp) of the one sample sequence (`--first-sample`, for renders split
     /// across machines and merged).
     pub first_sample: u32,
-    /// The light tree's nodes (0: none) and the directional lights after them
+    /// The light tree's slots (0: none) and the directional lights after them
     /// (SELECT_TREE; crate::light_tree).
-    pub light_tree_nodes: u32,
+    pub light_tree_slots: u32,
     pub directional_lights: u32,
-    /// 1: the light tree's array holds its nodes' lit boxes after the directional leaves
+    /// 1: the light tree's array holds its slots' lit boxes after the directional leaves
     /// (`LightTree::lit`).
     pub light_tree_lit_boxes: u32,
     /// To the struct's WGSL size, a multiple of its vec3f's alignment.
@@ -256,24 +256,31 @@ pub struct LightPick {
     pub tree_trail: u32,
 }
 
-/// A node of the light tree (crate::light_tree, shaders/light_tree.wgsl), 32 bytes: the bounds
-/// of the lights below it (a sphere around their box, power, the emission cone's axis
-/// `encode_normal`d and its cosines as unorm16, rounded so that the cone only grows) and its first
-/// child (the second follows it) or, in a leaf (`LIGHT_TREE_LEAF`), its light.
+/// A slot of the light tree (crate::light_tree, shaders/light_tree.wgsl), 32 bytes: the walk
+/// loads one a step. An inner node's slot holds its two children's bounds, each quantised within
+/// the node's own decoded sphere (`light_tree::encode_children`): the children's slots (side by
+/// side from `children`) and flags; each child's centre as three 10-bit offsets; their radii
+/// (unorm8) and cos θ_e (snorm8); their emission axes `encode_normal`d; cos θ_o as unorm16 each;
+/// their shares of the node's power as f16 each. A leaf's slot holds its light in `children`.
+/// Slot 0 holds the root's sphere (`light_tree::root_slot`).
 #[repr(C)]
-#[derive(Clone, Copy, Debug, Default, Pod, Zeroable)]
-pub struct LightTreeNode {
-    pub centre: [f32; 3],
-    pub radius: f32,
-    pub phi: f32,
-    pub axis: u32,
-    pub cosines: u32,
-    pub child_or_light: u32,
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct LightTreeSlot {
+    pub children: u32,
+    pub centre_a: u32,
+    pub centre_b: u32,
+    pub radii_cos_e: u32,
+    pub axis_a: u32,
+    pub axis_b: u32,
+    pub cos_o: u32,
+    pub phi: u32,
 }
 
-pub const LIGHT_TREE_LEAF: u32 = 1 << 31;
+/// `children`'s flags: child c (0 or 1) is a leaf (`LIGHT_TREE_LEAF << c`), emits from both
+/// sides (`LIGHT_TREE_TWO_SIDED << c`); the rest is the first child's slot.
+pub const LIGHT_TREE_LEAF: u32 = 1 << 28;
 pub const LIGHT_TREE_TWO_SIDED: u32 = 1 << 30;
-pub const LIGHT_TREE_INDEX: u32 = (1 << 30) - 1;
+pub const LIGHT_TREE_INDEX: u32 = (1 << 28) - 1;
 
 /// `encode_normal` undone, as `decode_normal` in layout.wgsl does it.
 pub fn decode_normal(bits: u32) -> [f32; 3] {
@@ -385,11 +392,11 @@ pub fn rust_layouts() -> Vec<StructLayout> {
             image_height,
             finish_samples,
             first_sample,
-            light_tree_nodes,
+            light_tree_slots,
             directional_lights,
             light_tree_lit_boxes
         }),
-        layout!(LightTreeNode { centre, radius, phi, axis, cosines, child_or_light }),
+        layout!(LightTreeSlot { children, centre_a, centre_b, radii_cos_e, axis_a, axis_b, cos_o, phi }),
         layout!(BvhNode { origin, exponents, low, lights_01, high, lights_23, children }),
         layout!(Vertex { p, normal }),
         layout!(IndexedTriangle { v0, v1, v2, material }),
