@@ -528,7 +528,7 @@ fn build(items: &mut [(u32, LightBounds)], at: usize, depth: u32, trail: u32, ou
         out.trails[items[0].0 as usize] = trail;
         return;
     }
-    let mid = split(items, depth);
+    let mid = split(items, &bounds, depth);
     let first_child = out.nodes.len();
     for _ in 0..2 {
         out.nodes.push(TreeNode { bounds, child_or_light: 0, leaf: true });
@@ -543,7 +543,7 @@ fn build(items: &mut [(u32, LightBounds)], at: usize, depth: u32, trail: u32, ou
 /// Where to split `items` (sorted in place so that the split is an index): the cheapest of the
 /// bucket boundaries on each axis of the centroids' box, or the median where no boundary
 /// separates them or the tree is already deep.
-fn split(items: &mut [(u32, LightBounds)], depth: u32) -> usize {
+fn split(items: &mut [(u32, LightBounds)], parent: &LightBounds, depth: u32) -> usize {
     let (mut lo, mut hi) = (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY));
     for (_, b) in items.iter() {
         lo = lo.min(b.centroid());
@@ -558,7 +558,6 @@ fn split(items: &mut [(u32, LightBounds)], depth: u32) -> usize {
     if depth >= MEDIAN_SPLIT_DEPTH || extent.max_element() <= 0.0 {
         return median(items, widest);
     }
-    let parent = union_all(items);
     let parent_extent = parent.max - parent.min;
     let bucket_of = |b: &LightBounds, axis: usize| {
         let t = (b.centroid()[axis] - lo[axis]) / extent[axis];
@@ -658,6 +657,21 @@ impl LightTree {
         pmf
     }
 
+    /// The slots from the root to the leaf a light's path (`trails`) leads to, for the tests.
+    #[cfg(test)]
+    fn path(&self, mut trail: u32) -> Vec<usize> {
+        let (mut at, mut path) = (1usize, vec![1usize]);
+        let mut leaf = self.slots[0].children & LIGHT_TREE_LEAF != 0;
+        while !leaf {
+            let children = self.slots[at].children;
+            leaf = (children >> (trail & 1)) & LIGHT_TREE_LEAF != 0;
+            at = (children & LIGHT_TREE_INDEX) as usize + (trail & 1) as usize;
+            path.push(at);
+            trail >>= 1;
+        }
+        path
+    }
+
     /// Every node's slot and decoded sphere, for the tests.
     #[cfg(test)]
     fn decoded_spheres(&self) -> Vec<(usize, Sphere)> {
@@ -723,15 +737,8 @@ mod tests {
             let lights = random_lights(n, n as u64);
             let tree = build_light_tree(&lights, &[]);
             for (i, trail) in tree.trails.iter().enumerate() {
-                let (mut at, mut t) = (1usize, *trail);
-                let mut leaf = tree.slots[0].children & LIGHT_TREE_LEAF != 0;
-                while !leaf {
-                    let children = tree.slots[at].children;
-                    leaf = (children >> (t & 1)) & LIGHT_TREE_LEAF != 0;
-                    at = (children & LIGHT_TREE_INDEX) as usize + (t & 1) as usize;
-                    t >>= 1;
-                }
-                assert_eq!(tree.slots[at].children, i as u32, "{n} lights: light {i}'s path");
+                let leaf = *tree.path(*trail).last().unwrap();
+                assert_eq!(tree.slots[leaf].children, i as u32, "{n} lights: light {i}'s path");
             }
             assert_eq!(tree.tree_slots as usize, 2 * n);
         }
@@ -755,22 +762,7 @@ mod tests {
         }
         let tree = build_light_tree(&lights, &[]);
         // The slots along each light's path.
-        let paths: Vec<Vec<usize>> = tree
-            .trails
-            .iter()
-            .map(|&trail| {
-                let (mut at, mut t, mut path) = (1usize, trail, vec![1usize]);
-                let mut leaf = tree.slots[0].children & LIGHT_TREE_LEAF != 0;
-                while !leaf {
-                    let children = tree.slots[at].children;
-                    leaf = (children >> (t & 1)) & LIGHT_TREE_LEAF != 0;
-                    at = (children & LIGHT_TREE_INDEX) as usize + (t & 1) as usize;
-                    path.push(at);
-                    t >>= 1;
-                }
-                path
-            })
-            .collect();
+        let paths: Vec<Vec<usize>> = tree.trails.iter().map(|&trail| tree.path(trail)).collect();
         let (origin, root, _) = tree.root();
         // What the GPU's rounding may take: half the margin each sphere was given.
         let spare = SPHERE_MARGIN / 2.0 * root.radius as f64;
